@@ -1,0 +1,5 @@
+import sys
+
+from flexfmu.cli import main
+
+sys.exit(main())

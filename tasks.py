@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Project tasks that work on a fresh clone with nothing but Python >= 3.11.
+
+    python3 tasks.py main    # set up .venv, then run the main job
+    python3 tasks.py test    # set up .venv, then run the whole test suite
+
+Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
+It is skipped when ``pyproject.toml`` has not changed since the last install, so
+running either command twice is safe and fast.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+import venv
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent
+VENV = ROOT / ".venv"
+STAMP = VENV / ".flexfmu-install-stamp"
+
+
+def _venv_python() -> Path:
+    return VENV / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
+
+
+def _install_fingerprint() -> str:
+    return hashlib.sha256((ROOT / "pyproject.toml").read_bytes()).hexdigest()
+
+
+def ensure_venv() -> Path:
+    """Create .venv and install the project (editable, with dev extra) unless up to date."""
+    if sys.version_info < (3, 11):
+        sys.exit(f"flexfmu needs Python >= 3.11; this is {sys.version.split()[0]}")
+    python = _venv_python()
+    if not python.exists():
+        print(f"[tasks] creating {VENV}", flush=True)
+        venv.EnvBuilder(with_pip=True).create(VENV)
+    fingerprint = _install_fingerprint()
+    if not STAMP.exists() or STAMP.read_text() != fingerprint:
+        print("[tasks] installing flexfmu[dev] into .venv", flush=True)
+        subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "--upgrade", "pip"])
+        subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "-e", f"{ROOT}[dev]"])
+        STAMP.write_text(fingerprint)
+    return python
+
+
+def run(argv: list[str]) -> int:
+    python = ensure_venv()
+    return subprocess.call([str(python), *argv], cwd=ROOT)
+
+
+def main() -> int:
+    task = sys.argv[1] if len(sys.argv) > 1 else "help"
+    extra = sys.argv[2:]
+    if task == "main":
+        return run(["-m", "flexfmu", "main", *extra])
+    if task == "test":
+        return run(["-m", "pytest", *extra])
+    if task == "setup":
+        ensure_venv()
+        return 0
+    print(__doc__)
+    return 0 if task in ("help", "-h", "--help") else 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
