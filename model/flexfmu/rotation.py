@@ -1,0 +1,429 @@
+"""Rotation from linear motion quantities (paper Section 2, Eqs. 4-22).
+
+Implements Section 2 of X. Liu, "A Novel Approach for Flexible Body Dynamics
+Computation via Synthesizing Incremental Motions in Reconfigured Inertial
+Frames" (``shared/papers/reframe-flexible-body.txt``): the angular velocity
+``g`` and angular acceleration ``h`` of a rigid body from the relative
+velocities / accelerations of three body points P, Q, R, and the evolution
+of the rotation vector ``phi = theta * lambda`` (Rodrigues, Eqs. 17-22).
+
+Conventions (all SI: m, m/s, m/s^2, rad, rad/s, rad/s^2; float64)
+------------------------------------------------------------------
+* ``skew(v)`` is the standard cross-product matrix: ``skew(v) @ x == v x x``.
+* ``paper_skew(v) == -skew(v)`` is the paper's matrix of Eqs. (17) and (21):
+  ``M_hat = paper_skew(lambda)``, ``Omega = paper_skew(omega_body)``.
+* ``A = rotation_matrix(phi) = exp(paper_skew(phi)) = exp(theta * M_hat)``
+  (Eq. 18) is the paper's "coordinate transformation matrix of the body-fixed
+  frame with respect to the global frame": it maps **global components to
+  body components**, ``v_body = A @ v_global``; its rows are the body axes
+  n'_i in global components.  The body->global matrix is ``A.T``, which is
+  ``scipy.spatial.transform.Rotation.from_rotvec(phi).as_matrix()``.
+  The axis ``lambda`` has the same components in both frames (``A @ lambda
+  == lambda``), so "lambda in global components" (paper) is unambiguous.
+* With this A, ``dA/dt = Omega @ A`` where ``Omega = paper_skew(omega_body)``
+  (equivalently ``d(A.T)/dt = A.T @ skew(omega_body)``), so Eq. (20)-(22)
+  take the **body-frame** angular velocity, exactly as Eq. (21) says.
+* ``angular_velocity`` / ``angular_acceleration`` are frame-agnostic: all
+  inputs in one frame (global or body), result in that same frame.
+
+Derivations of the equations missing from the extracted text
+------------------------------------------------------------
+Eq. (4)  ``{e1, e2, e3}^T = B {n'1, n'2, n'3}^T``: row i of B holds the
+         components of e_i (``e1 = p/|p|``, ``e2 = q/|q|``,
+         ``e3 = e1 x e2 / |e1 x e2|``); see :func:`oblique_basis`.
+Eq. (8)  ``omega = B^T omega_hat``, i.e. ``omega = sum_i omega_hat^i e_i``.
+         The hat components are the *contravariant* components (the
+         coefficients of the expansion along e_i), NOT the dual/covariant
+         projections ``omega . e_i``.  Proof: with ``v_P = omega x p`` and
+         ``s = |e1 x e2|``, ``c = e1 . e2``:
+         ``v_P . e3 = p omega_hat^2 (e2 x e1) . e3 = -p s omega_hat^2`` (Eq. 6),
+         ``v_Q . e3 = q omega_hat^1 (e1 x e2) . e3 = q s omega_hat^1`` (Eq. 7),
+         ``v_P . (e2 - c e1) = p omega_hat^3 (e3 x e1) . e2 = p s omega_hat^3``
+         (Eq. 5), using ``e3 x e1 = (e2 - c e1)/s``.  The covariant reading
+         would require ``omega . e1 = omega_hat^1 + c omega_hat^2`` instead,
+         which differs whenever p, q are not orthogonal (the tests show it).
+Eq. (13) ``alpha = B^T alpha_hat``, for the same reason: for a rigid body
+         ``a_P/R = alpha x p + omega x v_P/R``, so Eqs. (10)-(12) are Eqs.
+         (5)-(7) with ``v`` replaced by ``a - omega x v``.  Eq. (10) is
+         written in the equivalent form ``(a_P - omega x v_P) . (e3 x e1)/p``.
+
+Rotation-vector kinematics (Eqs. 20-22) as a 3-vector
+-----------------------------------------------------
+With ``M = theta M_hat = paper_skew(phi)`` and ``Omega = paper_skew(w)``
+(w = body-frame angular velocity), Eq. (22)'s ``ad_M_hat = -[M_hat, .]``
+with the paper's bracket ``[X, Y] = Y X - X Y`` is the ordinary commutator
+``ad_M_hat(N) = M_hat N - N M_hat`` (the two sign flips cancel), and Eq. (22)
+is the standard inverse of the derivative of the exponential map,
+``dexp^{-1}_M``.  Because ``[paper_skew(a), paper_skew(b)] =
+paper_skew(-(a x b))``, ``ad_M`` acts on the vectors as ``n -> -phi x n``, so
+
+    dphi/dt = w + 1/2 phi x w + c(theta) phi x (phi x w),
+    c(theta) = (1 - (theta/2) cot(theta/2)) / theta**2
+
+(the Bortz equation with body-frame w).  ``c`` is evaluated with its Taylor
+series for small theta (``c(0) = 1/12``, no 0/0) and is singular at
+``theta = 2 pi`` (``cot(pi)``), hence :func:`reparametrize`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from flexfmu.errors import ParameterError
+
+__all__ = [
+    "skew",
+    "paper_skew",
+    "oblique_basis",
+    "angular_velocity_oblique",
+    "angular_velocity",
+    "angular_acceleration_oblique",
+    "angular_acceleration",
+    "rotation_matrix",
+    "rotvec_from_matrix",
+    "rotvec_rate",
+    "rotvec_rate_matrix",
+    "reparametrize",
+    "MIN_SINE",
+]
+
+#: Default smallest allowed ``|e1 x e2|`` (sine of the angle between p and q).
+#: Errors in g and h are amplified by ~1/|e1 x e2|.
+MIN_SINE = 1e-6
+
+# Below this angle c(theta) of Eq. (22) is taken from its Taylor series
+# (truncation error < theta**8 / 4.8e7 < 3e-16 at the switch).
+_SERIES_THETA = 0.1
+
+
+# --------------------------------------------------------------------------
+# input checking
+# --------------------------------------------------------------------------
+def _vec3(x, name: str) -> np.ndarray:
+    """Return ``x`` as a finite float64 3-vector or raise ParameterError(name)."""
+    try:
+        v = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(name, f"not a numeric 3-vector ({exc})", "finite 3-vector") from None
+    if v.shape != (3,):
+        raise ParameterError(name, f"shape {v.shape}, expected (3,)", "finite 3-vector")
+    if not np.all(np.isfinite(v)):
+        raise ParameterError(name, "contains NaN or Inf", "finite 3-vector")
+    return v
+
+
+# --------------------------------------------------------------------------
+# skew matrices
+# --------------------------------------------------------------------------
+def skew(v) -> np.ndarray:
+    """Standard cross-product matrix: ``skew(v) @ x == np.cross(v, x)``.
+
+    ``[[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]``; any frame (the matrix has
+    the components of ``v`` in whatever frame ``v`` is given).
+    """
+    v = _vec3(v, "v")
+    return np.array([[0.0, -v[2], v[1]],
+                     [v[2], 0.0, -v[0]],
+                     [-v[1], v[0], 0.0]])
+
+
+def paper_skew(v) -> np.ndarray:
+    """The paper's skew matrix of Eqs. (17) and (21): ``-skew(v)``.
+
+    ``[[0, v3, -v2], [-v3, 0, v1], [v2, -v1, 0]]``, so
+    ``paper_skew(v) @ x == x cross v``.  ``M_hat = paper_skew(lambda)``
+    (Eq. 17), ``M = paper_skew(theta*lambda)``,
+    ``Omega = paper_skew(omega_body)`` (Eq. 21).
+    """
+    return -skew(v)
+
+
+# --------------------------------------------------------------------------
+# g and h  (Eqs. 4-14)
+# --------------------------------------------------------------------------
+def oblique_basis(p_vec, q_vec, min_sine: float = MIN_SINE):
+    """Eq. (4): matrix B whose rows are e1, e2, e3, plus ``|e1 x e2|``.
+
+    ``p_vec = RP``, ``q_vec = RQ`` (m) in any one frame; the rows of B are in
+    that frame (the paper uses the body frame).  ``e1 = p/|p|``,
+    ``e2 = q/|q|``, ``e3 = e1 x e2 / |e1 x e2|`` (unit, normal to e1, e2;
+    e1, e2 generally not orthogonal).
+
+    Returns ``(B, p, q, s)`` with ``p = |p_vec|``, ``q = |q_vec|`` and
+    ``s = |e1 x e2|``.  Raises :class:`ParameterError` if p_vec or q_vec is
+    zero / non-finite, or if they are (nearly) colinear (``s < min_sine``).
+    """
+    p_vec = _vec3(p_vec, "p_vec")
+    q_vec = _vec3(q_vec, "q_vec")
+    p = float(np.linalg.norm(p_vec))
+    q = float(np.linalg.norm(q_vec))
+    if not p > 0.0:
+        raise ParameterError("p_vec", "zero length: points R and P coincide", "non-zero vector R->P")
+    if not q > 0.0:
+        raise ParameterError("q_vec", "zero length: points R and Q coincide", "non-zero vector R->Q")
+    e1 = p_vec / p
+    e2 = q_vec / q
+    n = np.cross(e1, e2)
+    s = float(np.linalg.norm(n))
+    if not s >= min_sine:
+        raise ParameterError(
+            "p_vec, q_vec",
+            f"R->P and R->Q are (nearly) colinear, |e1 x e2| = {s:.3g}",
+            f"|e1 x e2| >= {min_sine:g} (P, Q, R not on one line)",
+        )
+    e3 = n / s
+    return np.vstack((e1, e2, e3)), p, q, s
+
+
+def _hat_components(B, p, q, s, w_P, w_Q) -> np.ndarray:
+    """Shared core of Eqs. (5)-(7) and (10)-(12).
+
+    For a rigid body ``w_P = x x p`` and ``w_Q = x x q`` with x = omega
+    (Eqs. 5-7, w = v) or x = alpha (Eqs. 10-12, w = a - omega x v); returns
+    the contravariant components ``x_hat`` of x along e1, e2, e3.
+    """
+    e1, e2, e3 = B
+    x3 = float(w_P @ np.cross(e3, e1)) / p          # e3 x e1 = (e2 - (e1.e2) e1)/s
+    x2 = -float(w_P @ e3) / (p * s)
+    x1 = float(w_Q @ e3) / (q * s)
+    return np.array([x1, x2, x3])
+
+
+def angular_velocity_oblique(p_vec, q_vec, v_PR, v_QR, min_sine: float = MIN_SINE) -> np.ndarray:
+    """Eqs. (5)-(7): components ``(omega_hat^1, omega_hat^2, omega_hat^3)``.
+
+    They are the contravariant components along the oblique basis e1, e2, e3
+    of :func:`oblique_basis` (``omega = sum_i omega_hat^i e_i``), not the
+    projections ``omega . e_i``.  Inputs as in :func:`angular_velocity`.
+
+    * Eq. (5): ``omega_hat^3 = v_P/R . (e2 - e1 (e1.e2)) / (p |e1 x e2|)``
+    * Eq. (6): ``omega_hat^2 = -v_P/R . e3 / (p |e1 x e2|)``
+    * Eq. (7): ``omega_hat^1 =  v_Q/R . e3 / (q |e1 x e2|)``
+
+    Choice (as printed): omega_hat^3 is taken from P only.  For exactly rigid
+    data Q gives the same value; for non-rigid data (a flexible body) the
+    stretch components ``v_P/R . e1``, ``v_Q/R . e2`` and Q's estimate of
+    omega_hat^3 are ignored.
+    """
+    B, p, q, s = oblique_basis(p_vec, q_vec, min_sine)
+    v_PR = _vec3(v_PR, "v_PR")
+    v_QR = _vec3(v_QR, "v_QR")
+    return _hat_components(B, p, q, s, v_PR, v_QR)
+
+
+def angular_velocity(p_vec, q_vec, v_PR, v_QR, min_sine: float = MIN_SINE) -> np.ndarray:
+    """g of Eq. (9): angular velocity (rad/s) from relative velocities of P, Q.
+
+    p_vec: R->P (m), q_vec: R->Q (m), v_PR = v_P - v_R, v_QR = v_Q - v_R (m/s),
+    all four with components in the **same** frame (global, or body-fixed as
+    in the paper); the returned omega is in that same frame.  p_vec and q_vec
+    need not be orthogonal, only non-colinear (``|e1 x e2| >= min_sine``,
+    else :class:`ParameterError`).
+
+    Eqs. (5)-(7) give the oblique components (:func:`angular_velocity_oblique`);
+    Eq. (8) (missing in the text, derived): ``omega = B^T omega_hat``.
+    """
+    B, p, q, s = oblique_basis(p_vec, q_vec, min_sine)
+    v_PR = _vec3(v_PR, "v_PR")
+    v_QR = _vec3(v_QR, "v_QR")
+    return B.T @ _hat_components(B, p, q, s, v_PR, v_QR)
+
+
+def angular_acceleration_oblique(p_vec, q_vec, v_PR, v_QR, a_PR, a_QR, omega,
+                                 min_sine: float = MIN_SINE) -> np.ndarray:
+    """Eqs. (10)-(12): contravariant components of alpha along e1, e2, e3.
+
+    * Eq. (10): ``alpha_hat^3 = (e3 x (omega x v_P/R) - e3 x a_P/R) . e1 / p``
+    * Eq. (11): ``alpha_hat^2 = (omega x v_P/R - a_P/R) . e3 / (p |e1 x e2|)``
+    * Eq. (12): ``alpha_hat^1 = (a_Q/R - omega x v_Q/R) . e3 / (q |e1 x e2|)``
+
+    Inputs as in :func:`angular_acceleration`.
+    """
+    B, p, q, s = oblique_basis(p_vec, q_vec, min_sine)
+    v_PR = _vec3(v_PR, "v_PR")
+    v_QR = _vec3(v_QR, "v_QR")
+    a_PR = _vec3(a_PR, "a_PR")
+    a_QR = _vec3(a_QR, "a_QR")
+    omega = _vec3(omega, "omega")
+    w_P = a_PR - np.cross(omega, v_PR)   # = alpha x p for a rigid body
+    w_Q = a_QR - np.cross(omega, v_QR)   # = alpha x q
+    return _hat_components(B, p, q, s, w_P, w_Q)
+
+
+def angular_acceleration(p_vec, q_vec, v_PR, v_QR, a_PR, a_QR, omega,
+                         min_sine: float = MIN_SINE) -> np.ndarray:
+    """h of Eq. (14): angular acceleration (rad/s^2) from relative motion of P, Q.
+
+    p_vec, q_vec: R->P, R->Q (m); v_PR, v_QR: relative velocities (m/s);
+    a_PR = a_P - a_R, a_QR = a_Q - a_R (m/s^2); omega: angular velocity
+    (rad/s, e.g. from :func:`angular_velocity`).  All in the same frame
+    (global or body); alpha is returned in that frame.  (alpha = d omega/dt
+    is the same whether differentiated in the global or the body frame.)
+
+    Eqs. (10)-(12) give the oblique components; Eq. (13) (missing, derived):
+    ``alpha = B^T alpha_hat``.  Eq. (14) prints ``v_O/R``, ``a_O/R``: read Q.
+    """
+    B, _, _, _ = oblique_basis(p_vec, q_vec, min_sine)
+    return B.T @ angular_acceleration_oblique(p_vec, q_vec, v_PR, v_QR, a_PR, a_QR,
+                                              omega, min_sine)
+
+
+# --------------------------------------------------------------------------
+# Rodrigues and its inverse  (Eqs. 17-19)
+# --------------------------------------------------------------------------
+def rotation_matrix(rotvec) -> np.ndarray:
+    """Eqs. (18)-(19): ``A = exp(theta M_hat) = I + sin(theta) M_hat + (1 - cos(theta)) M_hat^2``.
+
+    rotvec = theta * lambda (rad; same components in global and body frame).
+    A maps **global components to body components** (``v_body = A @ v_global``)
+    and equals ``Rotation.from_rotvec(rotvec).as_matrix().T``.
+
+    Written as ``I + (sin t / t) M + ((1 - cos t)/t^2) M^2`` with
+    ``M = paper_skew(rotvec)`` and both coefficients from ``np.sinc``, so
+    theta = 0 needs no special case.
+    """
+    phi = _vec3(rotvec, "rotvec")
+    theta = float(np.linalg.norm(phi))
+    M = paper_skew(phi)
+    a = np.sinc(theta / np.pi)                        # sin(t)/t
+    b = 0.5 * np.sinc(theta / (2.0 * np.pi)) ** 2     # (1 - cos t)/t^2 = 2 sin^2(t/2)/t^2
+    return np.eye(3) + a * M + b * (M @ M)
+
+
+def rotvec_from_matrix(A, atol: float = 1e-6) -> np.ndarray:
+    """Inverse of :func:`rotation_matrix`: phi with ``rotation_matrix(phi) == A``, ``|phi| <= pi``.
+
+    A: global->body rotation matrix (same convention as :func:`rotation_matrix`).
+    Robust for all angles including theta ~ pi: goes through the unit
+    quaternion of ``A.T`` (Shepperd's largest-pivot method, scalar part
+    made >= 0) and ``theta = 2 atan2(|q_v|, q_w)``.  At exactly theta = pi
+    the sign of phi is arbitrary (both describe the same rotation).
+
+    Raises :class:`ParameterError` ("A") if A is not 3x3, not finite, or not
+    a proper rotation within ``atol`` (``|A^T A - I|_max``, ``det A > 0``).
+    """
+    try:
+        A = np.asarray(A, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError("A", "not a numeric 3x3 matrix", "proper rotation matrix") from None
+    if A.shape != (3, 3) or not np.all(np.isfinite(A)):
+        raise ParameterError("A", f"shape {A.shape} or non-finite entries", "finite 3x3 rotation matrix")
+    err = float(np.max(np.abs(A.T @ A - np.eye(3))))
+    if err > atol or np.linalg.det(A) <= 0.0:
+        raise ParameterError("A", f"not a proper rotation (|A^T A - I| = {err:.3g}, det = "
+                                  f"{np.linalg.det(A):.6g})", f"orthonormal within {atol:g}, det = +1")
+    R = A.T  # body -> global; R = exp(skew(phi))
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
+    if k == 0:
+        w = 0.5 * np.sqrt(1.0 + tr)
+        x = (R[2, 1] - R[1, 2]) / (4 * w)
+        y = (R[0, 2] - R[2, 0]) / (4 * w)
+        z = (R[1, 0] - R[0, 1]) / (4 * w)
+    elif k == 1:
+        x = 0.5 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
+        w = (R[2, 1] - R[1, 2]) / (4 * x)
+        y = (R[0, 1] + R[1, 0]) / (4 * x)
+        z = (R[0, 2] + R[2, 0]) / (4 * x)
+    elif k == 2:
+        y = 0.5 * np.sqrt(1.0 - R[0, 0] + R[1, 1] - R[2, 2])
+        w = (R[0, 2] - R[2, 0]) / (4 * y)
+        x = (R[0, 1] + R[1, 0]) / (4 * y)
+        z = (R[1, 2] + R[2, 1]) / (4 * y)
+    else:
+        z = 0.5 * np.sqrt(1.0 - R[0, 0] - R[1, 1] + R[2, 2])
+        w = (R[1, 0] - R[0, 1]) / (4 * z)
+        x = (R[0, 2] + R[2, 0]) / (4 * z)
+        y = (R[1, 2] + R[2, 1]) / (4 * z)
+    qv = np.array([x, y, z])
+    if w < 0.0:
+        w, qv = -w, -qv
+    n = float(np.linalg.norm(qv))
+    if n < 1e-8:   # theta < 2e-8: 2 atan2(n, w)/n = (2/w)(1 - (n/w)^2/3 + ...)
+        scale = (2.0 / w) * (1.0 - (n / w) ** 2 / 3.0)
+    else:
+        scale = 2.0 * np.arctan2(n, w) / n
+    return scale * qv
+
+
+# --------------------------------------------------------------------------
+# rotation-vector evolution  (Eqs. 20-22)
+# --------------------------------------------------------------------------
+def _c_coeff(theta: float) -> float:
+    """``c(theta) = (1 - (theta/2) cot(theta/2)) / theta^2`` of Eq. (22); series near 0."""
+    if theta < _SERIES_THETA:
+        t2 = theta * theta
+        return 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 / 1209600.0))
+    half = 0.5 * theta
+    return (1.0 - half * np.cos(half) / np.sin(half)) / (theta * theta)
+
+
+def rotvec_rate(rotvec, omega_body) -> np.ndarray:
+    """Eqs. (20)-(22) as a 3-vector: ``d(theta lambda)/dt`` (rad/s).
+
+    rotvec: phi = theta * lambda of ``A = rotation_matrix(phi)`` (global->body).
+    omega_body: angular velocity with **body-frame** components (rad/s),
+    the omega' of Eq. (21).
+
+        dphi/dt = w + 1/2 phi x w + c(theta) phi x (phi x w),
+        c = (1 - (theta/2) cot(theta/2)) / theta^2,  c -> 1/12 (series) as theta -> 0.
+
+    This is ``paper_skew^{-1}`` of Eq. (20)'s ``dM/dt = f^{-1} Omega``
+    (see :func:`rotvec_rate_matrix`).  Singular at theta = 2 pi: keep
+    theta <= pi with :func:`reparametrize` (call it after every accepted
+    integration step, never between the stages of one step).
+    """
+    phi = _vec3(rotvec, "rotvec")
+    w = _vec3(omega_body, "omega_body")
+    theta = float(np.linalg.norm(phi))
+    pxw = np.cross(phi, w)
+    return w + 0.5 * pxw + _c_coeff(theta) * np.cross(phi, pxw)
+
+
+def rotvec_rate_matrix(M_hat, theta: float, Omega) -> np.ndarray:
+    """Eq. (20) with Eq. (22) literally, in the paper's matrix form: ``dM/dt`` (3x3).
+
+    M_hat = paper_skew(lambda) (Eq. 17), theta (rad), Omega =
+    paper_skew(omega_body) (Eq. 21).  Uses the paper's
+    ``ad_M_hat(N) = -[M_hat, N]`` with ``[M_hat, N] = N M_hat - M_hat N``.
+    Returns ``dM/dt`` where ``M = theta M_hat``; equal to
+    ``paper_skew(rotvec_rate(theta*lambda, omega_body))``.  Kept as the
+    literal transcription for cross-checking; the integrator should use
+    :func:`rotvec_rate`.
+    """
+    M_hat = np.asarray(M_hat, dtype=np.float64)
+    Omega = np.asarray(Omega, dtype=np.float64)
+
+    def ad(N):
+        return -(N @ M_hat - M_hat @ N)
+
+    if theta == 0.0:
+        return Omega.copy()
+    # (theta cot(theta/2)/2 - 1) = -theta^2 c(theta); series-safe via _c_coeff
+    k2 = -theta * theta * _c_coeff(abs(theta))
+    adO = ad(Omega)
+    return Omega - (theta / 2.0) * adO - k2 * ad(adO)
+
+
+def reparametrize(rotvec) -> np.ndarray:
+    """Map phi with ``theta = |phi| > pi`` to the equivalent phi' with ``|phi'| <= pi``.
+
+    ``phi' = lambda (theta - 2 pi k)``, k = ceil((theta - pi)/(2 pi)) (k = 1
+    for pi < theta <= 3 pi, the case that occurs in integration), which has
+    the same rotation matrix (``rotation_matrix(phi') == rotation_matrix(phi)``)
+    and theta' in (-pi, pi], i.e. |phi'| <= pi.  Returned unchanged (copy)
+    if theta <= pi.
+
+    Why: Eq. (22)'s coefficient ``cot(theta/2)`` is singular at theta = 2 pi.
+    When to call: after each accepted integration step of
+    :func:`rotvec_rate` (not inside the stages of one step: all stages of a
+    step must use the same chart).  With a step that turns the body by much
+    less than pi, theta then never exceeds ~pi + |omega| dt.  phi' is a
+    different point of the parameter space, so any quantity carried along
+    in phi-coordinates (not needed here) would have to be mapped too.
+    """
+    phi = _vec3(rotvec, "rotvec")
+    theta = float(np.linalg.norm(phi))
+    if theta <= np.pi:
+        return phi.copy()
+    k = np.ceil((theta - np.pi) / (2.0 * np.pi))
+    return phi * ((theta - 2.0 * np.pi * k) / theta)
