@@ -44,7 +44,11 @@ def modal_analysis(scene: Scene, boundary: str = "scene", n_modes: int = 6, elem
     if elements_per_segment >= 1:
         model, modes = solve(elements_per_segment)
         return ModalResult(model, modes, elements_per_segment, False, [(elements_per_segment, modes.frequencies_hz)])
+    # Start coarse, but with at least twice as many DOFs as modes asked for.
     n_el = 2
+    n_segments = len(scene.points) - 1
+    while 6 * (n_segments * n_el + 1) < 2 * n_modes and n_el < max_elements_per_segment:
+        n_el *= 2
     model, modes = solve(n_el)
     history = [(n_el, modes.frequencies_hz)]
     while n_el < max_elements_per_segment:
