@@ -245,13 +245,13 @@ def test_rotvec_rate_series_is_accurate_and_finite_at_zero():
     """c(theta) of Eq. (22) vs an extended-precision evaluation of
     (1 - (t/2) cot(t/2)) / t^2 on both sides of the series switch (theta = 0.1),
     and vs its Taylor limit 1/12 + t^2/720 where even long double cancels."""
-    from flexfmu.rotation import _c_coeff
+    from flexfmu.rotation import rotvec_rate_coefficient
 
     w = np.array([0.0, 0.0, 1.5])
     lam = np.array([0.6, 0.8, 0.0])
     np.testing.assert_array_equal(rotvec_rate(np.zeros(3), w), w)
     assert np.all(np.isfinite(rotvec_rate(1e-300 * lam, w)))
-    assert _c_coeff(0.0) == 1 / 12
+    assert rotvec_rate_coefficient(0.0) == 1 / 12
     for th in [1e-9, 1e-5, 1e-3, 0.05, 0.0999, 0.1, 0.1001, 0.5, 3.0, 6.0]:
         if th < 1e-3:
             c_ref = 1 / 12 + th**2 / 720
@@ -261,11 +261,11 @@ def test_rotvec_rate_series_is_accurate_and_finite_at_zero():
             c_ref = float((1 - h * np.cos(h) / np.sin(h)) / (t * t))
         # float64 cancellation in the closed form: ~ 12 eps / th^2 relative
         tol = 1e-15 if th < 0.1 else max(1e-15, 20 * np.finfo(float).eps / th**2)
-        assert _c_coeff(th) == pytest.approx(c_ref, rel=tol), th
+        assert rotvec_rate_coefficient(th) == pytest.approx(c_ref, rel=tol), th
     # c enters rotvec_rate as phi x (phi x w) = -th^2 w for phi orthogonal to w
     th = 0.5
     got = rotvec_rate(th * lam, w)
-    ref = w + 0.5 * np.cross(th * lam, w) - th**2 * _c_coeff(th) * w
+    ref = w + 0.5 * np.cross(th * lam, w) - th**2 * rotvec_rate_coefficient(th) * w
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-15)
 
 

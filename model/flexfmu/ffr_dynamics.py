@@ -42,13 +42,10 @@ from flexfmu.beam_element import local_shape_functions
 from flexfmu.errors import require
 from flexfmu.kinematics import point_shape
 from flexfmu.modal import Modes
+from flexfmu.vec3 import cross as _cross
+from flexfmu.vec3 import skew as _skew
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)   # exact for the degree-6 products of Hermite cubics
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    x, y, z = v
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 @dataclass
@@ -243,7 +240,7 @@ class FFRBeamDynamics:
         a_el = self.sensor_map @ eta_ddot
         u = self.sensor.undeformed_body + u_el
         w, al = base.omega, base.alpha
-        a = base.a0 + np.cross(al, u) + np.cross(w, np.cross(w, u)) + 2 * np.cross(w, v_el) + a_el
+        a = base.a0 + _cross(al, u) + _cross(w, _cross(w, u)) + 2 * _cross(w, v_el) + a_el
         return u_el, v_el, a
 
     def reactions(self, state: ModalState, eta_ddot: np.ndarray, force_body, moment_body,
@@ -257,22 +254,22 @@ class FFRBeamDynamics:
         s_u = ints.first_moment + ints.S_bar @ q                  # int rho u
         s_v = ints.S_bar @ q_dot
         s_a = ints.S_bar @ q_ddot
-        momentum_rate = (ints.mass * base.a0 + np.cross(al, s_u) + np.cross(w, np.cross(w, s_u))
-                         + 2 * np.cross(w, s_v) + s_a)
+        momentum_rate = (ints.mass * base.a0 + _cross(al, s_u) + _cross(w, _cross(w, s_u))
+                         + 2 * _cross(w, s_v) + s_a)
         force_on_base = np.asarray(force_body, float) - momentum_rate
         # int rho u x a to first order in q.  T[b, c] = int rho x_b y_c turns into int rho x cross y
         # by _cross_integral; Pq[a, b] = int rho (S q)_a u0_b.
         Pq, Pqd, Pqdd = (np.einsum("abn,n->ab", ints.P, v) for v in (q, q_dot, q_ddot))
         W = _skew(w)
         X = _skew(al) + W @ W
-        moment_rate = (ints.J0 @ al + np.cross(w, ints.J0 @ w)   # int rho u0 x (X u0)
+        moment_rate = (ints.J0 @ al + _cross(w, ints.J0 @ w)   # int rho u0 x (X u0)
                        + _cross_integral(Pq @ X.T)               # int rho (S q) x (X u0)
                        + _cross_integral((X @ Pq).T)             # int rho u0 x (X S q)
                        + _cross_integral((2 * W @ Pqd).T)        # int rho u0 x (2 W S q_dot)
                        + _cross_integral(Pqdd.T)                 # int rho u0 x S q_ddot
-                       + np.cross(s_u, base.a0))                 # int rho u x a0
+                       + _cross(s_u, base.a0))                 # int rho u x a0
         r_F = self.load.undeformed_body + self.load.displacement_body(q)
-        moment_on_base = np.asarray(moment_body, float) + np.cross(r_F, force_body) - moment_rate
+        moment_on_base = np.asarray(moment_body, float) + _cross(r_F, force_body) - moment_rate
         return force_on_base, moment_on_base
 
     def tip_displacement(self, state: ModalState) -> np.ndarray:

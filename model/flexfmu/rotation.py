@@ -83,6 +83,7 @@ __all__ = [
     "rotvec_rate",
     "rotvec_rate_matrix",
     "reparametrize",
+    "rotvec_rate_coefficient",
     "MIN_SINE",
 ]
 
@@ -348,7 +349,7 @@ def rotvec_from_matrix(A, atol: float = 1e-6) -> np.ndarray:
 # --------------------------------------------------------------------------
 # rotation-vector evolution  (Eqs. 20-22)
 # --------------------------------------------------------------------------
-def _c_coeff(theta: float) -> float:
+def rotvec_rate_coefficient(theta: float) -> float:
     """``c(theta) = (1 - (theta/2) cot(theta/2)) / theta^2`` of Eq. (22); series near 0."""
     if theta < _SERIES_THETA:
         t2 = theta * theta
@@ -376,7 +377,7 @@ def rotvec_rate(rotvec, omega_body) -> np.ndarray:
     w = _vec3(omega_body, "omega_body")
     theta = float(np.linalg.norm(phi))
     pxw = np.cross(phi, w)
-    return w + 0.5 * pxw + _c_coeff(theta) * np.cross(phi, pxw)
+    return w + 0.5 * pxw + rotvec_rate_coefficient(theta) * np.cross(phi, pxw)
 
 
 def rotvec_rate_matrix(M_hat, theta: float, Omega) -> np.ndarray:
@@ -398,8 +399,8 @@ def rotvec_rate_matrix(M_hat, theta: float, Omega) -> np.ndarray:
 
     if theta == 0.0:
         return Omega.copy()
-    # (theta cot(theta/2)/2 - 1) = -theta^2 c(theta); series-safe via _c_coeff
-    k2 = -theta * theta * _c_coeff(abs(theta))
+    # (theta cot(theta/2)/2 - 1) = -theta^2 c(theta); series-safe via rotvec_rate_coefficient
+    k2 = -theta * theta * rotvec_rate_coefficient(abs(theta))
     adO = ad(Omega)
     return Omega - (theta / 2.0) * adO - k2 * ad(adO)
 
