@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Project tasks that work on a fresh clone with nothing but Python >= 3.11.
 
-    python3 tasks.py main    # set up .venv, then run the main job
+    python3 tasks.py main    # set up .venv, then the main job: modal report, build the FMUs into
+                             # dist/, run the paper's hammer test through fmpy (docs/figures/)
     python3 tasks.py test    # set up .venv, then run the whole test suite
 
 Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
@@ -56,7 +57,13 @@ def main() -> int:
     task = sys.argv[1] if len(sys.argv) > 1 else "help"
     extra = sys.argv[2:]
     if task == "main":
-        return run(["-m", "flexfmu", "main", *extra])
+        # The modal report, then the FMUs, then the paper's hammer test through fmpy.
+        for argv in (["-m", "flexfmu", "main"], ["build_scripts/build_fmus.py", "--out", "dist"],
+                     ["examples/hammer_test.py", "--fmu", "dist/FFRBeam.fmu", *extra]):
+            status = run(argv)
+            if status:
+                return status
+        return 0
     if task == "test":
         return run(["-m", "pytest", *extra])
     if task == "setup":

@@ -1,7 +1,8 @@
 """Command-line interface: a thin shell over library functions.
 
     flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json]
-    flexfmu main            the project's main job (see README)
+    flexfmu build [--out dist]
+    flexfmu main            the modal report of the paper's specimen (python3 tasks.py main does more)
 
 Bad input exits with status 2 and a one-line message naming the parameter.
 """
@@ -10,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from flexfmu.assembly import BOUNDARY_HELP, BOUNDARY_PRESETS
 from flexfmu.errors import FlexfmuError
@@ -49,6 +51,22 @@ def _main_job(args: argparse.Namespace) -> int:
     return 0
 
 
+def _build(args: argparse.Namespace) -> int:
+    """Build the FMUs with the source checkout's build_scripts/build_fmus.py."""
+    import importlib.util
+
+    script = Path(__file__).resolve().parents[2] / "build_scripts" / "build_fmus.py"
+    if not script.is_file():
+        print("flexfmu: error: build: needs a source checkout (build_scripts/build_fmus.py not found next to "
+              f"the installed package at {Path(__file__).parent}); install with 'pip install -e .'", file=sys.stderr)
+        return 2
+    spec = importlib.util.spec_from_file_location("build_fmus", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.build(args.out.resolve() if args.out else script.parents[1] / "dist")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -65,6 +83,10 @@ def build_parser() -> argparse.ArgumentParser:
     modal.add_argument("--rotary-inertia", action="store_true", help="include rotary inertia of bending")
     modal.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     modal.set_defaults(func=_modal)
+
+    build = sub.add_parser("build", help="build the FMUs into dist/ (source checkout)")
+    build.add_argument("--out", type=Path, default=None, help="output folder (default: dist/ of the checkout)")
+    build.set_defaults(func=_build)
 
     main_job = sub.add_parser("main", help="the main job: the paper's spatial double pendulum, all boundaries")
     main_job.set_defaults(func=_main_job)

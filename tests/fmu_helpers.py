@@ -1,0 +1,86 @@
+"""Drive built FMUs through fmpy's low-level FMU2Slave, capturing the log."""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def build_fmus(out: Path) -> dict[str, Path]:
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("build_fmus", ROOT / "build_scripts" / "build_fmus.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return {p.stem: p for p in module.build(out)}
+
+
+class Instance:
+    """One FMU instance with a log list; vr lookup by name; set/get by name."""
+
+    _extracted: dict = {}
+
+    def __init__(self, fmu: Path, name: str = "instance", **start_values):
+        self.md = read_model_description(str(fmu))
+        key = str(fmu)
+        if key not in Instance._extracted:
+            Instance._extracted[key] = extract(str(fmu))
+        self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
+        self.types = {v.name: v.type for v in self.md.modelVariables}
+        self.log: list[tuple[int, str, str]] = []
+        self.failed = False   # after fmi2Fatal (pythonfmu's status for a Python exception) no call is allowed
+
+        def logger(component, instance_name, status, category, message):
+            self.log.append((status, (category or b"").decode(), (message or b"").decode()))
+
+        self._logger = fmi2CallbackLoggerTYPE(logger)   # keep a reference: ctypes must not free it
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = self._logger
+        callbacks.allocateMemory = ctypes.cast(None, type(callbacks.allocateMemory))
+        callbacks.freeMemory = ctypes.cast(None, type(callbacks.freeMemory))
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=Instance._extracted[key],
+                             modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.enterInitializationMode()
+        self.set(**start_values)
+
+    def initialize(self):
+        self.fmu.exitInitializationMode()
+        return self
+
+    def set(self, **values):
+        for name, value in values.items():
+            kind = self.types[name]
+            if kind == "Real":
+                self.fmu.setReal([self.vr[name]], [float(value)])
+            elif kind == "Integer":
+                self.fmu.setInteger([self.vr[name]], [int(value)])
+            elif kind == "Boolean":
+                self.fmu.setBoolean([self.vr[name]], [bool(value)])
+            else:
+                self.fmu.setString([self.vr[name]], [str(value)])
+
+    def get(self, *names):
+        return self.fmu.getReal([self.vr[n] for n in names])
+
+    def messages(self) -> str:
+        return "\n".join(m for _, _, m in self.log)
+
+    def expect_failure(self, call, *args, **kwargs):
+        """Run an FMI call that must fail; returns the exception.  The instance is not used again."""
+        try:
+            call(*args, **kwargs)
+        except Exception as exc:   # fmpy raises FMICallException
+            self.failed = True
+            return exc
+        raise AssertionError(f"{getattr(call, '__name__', call)} did not fail")
+
+    def free(self):
+        if self.failed:
+            return   # FMI 2.0: after fmi2Fatal no function may be called, not even fmi2FreeInstance
+        self.fmu.terminate()
+        self.fmu.freeInstance()
