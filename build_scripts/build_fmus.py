@@ -20,6 +20,7 @@ from xml.etree import ElementTree as ET
 ROOT = Path(__file__).resolve().parents[1]
 FMU_SOURCES = ROOT / "fmu_src"
 PACKAGE = ROOT / "model" / "flexfmu"
+SLAVE_BASE = FMU_SOURCES / "flexfmu_fmu_base.py"   # FMI plumbing shared by the slave scripts
 
 # SI base-unit exponents of every unit used.
 UNITS = {
@@ -32,9 +33,11 @@ UNITS = {
 def _fmus():
     """(model name, slave script, variable info, default experiment) of each FMU."""
     sys.path.insert(0, str(ROOT / "model"))
-    from flexfmu import ffr_beam_sim
+    from flexfmu import ffr_beam_sim, reframe_body_sim
     return [("FFRBeam", FMU_SOURCES / "FFRBeam.py", ffr_beam_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"})]
+             {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"}),
+            ("ReframeBody", FMU_SOURCES / "ReframeBody.py", reframe_body_sim.VARIABLE_INFO,
+             {"startTime": "0", "stopTime": "1", "stepSize": "1e-3"})]
 
 
 def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> bytes:
@@ -92,7 +95,7 @@ def build(out: Path) -> list[Path]:
             # Bundle a clean copy of the package (no caches) under the import name flexfmu.
             package = Path(tmp) / "flexfmu"
             shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
+            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package, SLAVE_BASE],
                                             canGetAndSetFMUstate=True, canSerializeFMUstate=True))
             _rewrite_model_description(fmu, info, experiment)
             target = out / f"{name}.fmu"

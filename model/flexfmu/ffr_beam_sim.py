@@ -84,6 +84,10 @@ class FFRBeamSimulator:
         self.state = self.dynamics.initial_state()
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
 
+    @property
+    def time(self) -> float:
+        return self.state.t
+
     @staticmethod
     def check_inputs(inputs: dict) -> None:
         for name, value in inputs.items():

@@ -72,6 +72,7 @@ __all__ = [
     "FixedFrameBaseline",
     "BaselineResult",
     "quaternion_from_rotation",
+    "Snapshot",
 ]
 
 SCHEMES = ("consistent", "paper")
@@ -945,37 +946,69 @@ class ReframeIntegrator:
         if not (isinstance(every, numbers.Integral) and every >= 1):
             raise ParameterError("every", f"{every!r}", "integer >= 1")
         self.data.check_stability(dt)
-        loads = _Prepared(self.data.resolve_loads(load))
-        pts = np.array([self.data.node_index(p, f"points[{k}]") for k, p in enumerate(points)], dtype=np.int64)
+        loads = self.prepare_loads(load)
+        pts = self.point_indices(points)
         n_steps = int(round((t_end - s.t) / dt))
         if abs(n_steps * dt - (t_end - s.t)) > 1e-9 * max(1.0, t_end):
             n_steps = int(math.ceil((t_end - s.t) / dt))
-        rec = []
-
-        def record(st):
-            w, alpha, vcom, umax, kin = self._outputs(st, loads.items, pts)
-            nm = self.data.n_modes
-            rec.append((st.t, st.position - st.rotation @ self.data.com, st.rotation.copy(),
-                        quaternion_from_rotation(st.rotation), w, alpha, st.position.copy(), vcom,
-                        st.eta[N_RIGID:nm].copy(), st.eta[nm + N_RIGID:].copy(), umax, kin))
-
-        record(s)
+        rec = [self.snapshot(s, loads, pts)]
         for n in range(n_steps):
             s = self.advance(s, dt, loads)
             if (n + 1) % every == 0 or n + 1 == n_steps:
-                record(s)
+                rec.append(self.snapshot(s, loads, pts))
         self.state = s
-        cols = list(zip(*rec))
-        kin = list(zip(*cols[11]))
+
+        def stack(name):
+            return np.array([getattr(r, name) for r in rec])
+
+        kin = list(zip(*[r.points for r in rec]))
         return ReframeResult(
-            t=np.array(cols[0]), frame_origin=np.array(cols[1]), rotation=np.array(cols[2]),
-            quaternion=np.array(cols[3]), omega=np.array(cols[4]), alpha=np.array(cols[5]),
-            com_position=np.array(cols[6]), com_velocity=np.array(cols[7]), q=np.array(cols[8]),
-            qd=np.array(cols[9]), max_elastic_displacement=np.array(cols[10]), points=pts,
+            t=stack("t"), frame_origin=stack("frame_origin"), rotation=stack("rotation"),
+            quaternion=stack("quaternion"), omega=stack("omega"), alpha=stack("alpha"),
+            com_position=stack("com_position"), com_velocity=stack("com_velocity"), q=stack("q"),
+            qd=stack("qd"), max_elastic_displacement=stack("max_elastic_displacement"), points=pts,
             point_position=np.array(kin[0]), point_velocity=np.array(kin[1]),
             point_acceleration=np.array(kin[2]), point_position_rigid=np.array(kin[3]),
             point_velocity_rigid=np.array(kin[4]), point_acceleration_rigid=np.array(kin[5]),
             final_state=s)
+
+    # ---------------------------------------------------------------- single-state outputs (FMU, CLI)
+    def prepare_loads(self, load) -> "_Prepared":
+        """Resolve loads once (node lookup, history checks) for many steps."""
+        return load if isinstance(load, _Prepared) else _Prepared(self.data.resolve_loads(load))
+
+    def point_indices(self, points) -> np.ndarray:
+        """Node indices of output points given as node indices or coordinates (nearest node)."""
+        return np.array([self.data.node_index(p, f"points[{k}]") for k, p in enumerate(points)], dtype=np.int64)
+
+    def snapshot(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> "Snapshot":
+        """All outputs of one state (the loads enter the accelerations)."""
+        w, alpha, vcom, umax, kin = self._outputs(state, loads.items, points)
+        nm = self.data.n_modes
+        return Snapshot(t=state.t, frame_origin=state.position - state.rotation @ self.data.com,
+                        rotation=state.rotation.copy(), quaternion=quaternion_from_rotation(state.rotation),
+                        omega=w, alpha=alpha, com_position=state.position.copy(), com_velocity=vcom,
+                        q=state.eta[N_RIGID:nm].copy(), qd=state.eta[nm + N_RIGID:].copy(),
+                        max_elastic_displacement=umax, points=kin)
+
+
+@dataclass
+class Snapshot:
+    """Outputs of one state; fields as in :class:`ReframeResult` without the time axis.  ``points`` is
+    (position, velocity, acceleration, position_rigid, velocity_rigid, acceleration_rigid), each (n_p, 3)."""
+
+    t: float
+    frame_origin: np.ndarray
+    rotation: np.ndarray
+    quaternion: np.ndarray
+    omega: np.ndarray
+    alpha: np.ndarray
+    com_position: np.ndarray
+    com_velocity: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    max_elastic_displacement: float
+    points: tuple
 
 
 class _Prepared:
