@@ -1,0 +1,112 @@
+"""Model specifications shared by the CLI and the ReframeBody FMU: a string names a conventional model.
+
+    paper_plate          the reframe paper's plate (:func:`flexfmu.plate.paper_plate`)
+    beam:<scene>         a built-in scene name or a scene JSON path, as a free-free bent rod
+                         (:func:`flexfmu.assembly.build_beam_model` with boundary "free")
+    <path>.npz           a structural model file (:func:`flexfmu.io.load_structure`)
+
+and the model's default load and output points (node indices):
+
+=============  =====================================  ===================
+model          default load point                     default output point
+=============  =====================================  ===================
+paper_plate    the paper's, midway between P5 and P8  P1
+beam, .npz     the last node                          the first node
+=============  =====================================  ===================
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from flexfmu.errors import ParameterError
+from flexfmu.structure import Structure
+
+MODEL_ALLOWED = "paper_plate | beam:<scene> | path to a .npz"
+BEAM_PREFIX = "beam:"
+DEFAULT_ELEMENTS_PER_SEGMENT = 8
+
+# Options each kind of model accepts (keyword arguments of load_model).
+_OPTIONS = {
+    "paper_plate": ("divisions", "corner_mass"),
+    "beam": ("elements_per_segment", "rotary_inertia"),
+    "npz": (),
+}
+
+
+def _check_options(kind: str, options: dict) -> None:
+    allowed = _OPTIONS[kind]
+    for key in options:
+        if key not in allowed:
+            raise ParameterError(key, f"not an option of a {kind} model",
+                                 ", ".join(allowed) if allowed else "no options")
+
+
+def load_model(spec: str, **options) -> Structure:
+    """The conventional structural model named by ``spec`` (see the module docstring).
+
+    options:  paper_plate: ``divisions`` (nx, ny, nz), ``corner_mass`` (kg);
+              beam:<scene>: ``elements_per_segment`` (default 8), ``rotary_inertia`` (default False);
+              .npz: none.
+
+    ``meta["model"]`` of the returned structure is ``spec``; ``meta["kind"]`` is "paper_plate",
+    "beam" or "npz".  Raises :class:`ParameterError` naming ``model`` for an unknown spec, a
+    scene or file that does not exist, or the offending option / file key.
+    """
+    if not isinstance(spec, str) or not spec.strip():
+        raise ParameterError("model", f"{spec!r}", MODEL_ALLOWED)
+    spec = spec.strip()
+    if spec == "paper_plate":
+        from flexfmu.plate import paper_plate
+
+        _check_options("paper_plate", options)
+        structure = paper_plate(**options)
+        kind = "paper_plate"
+    elif spec.startswith(BEAM_PREFIX):
+        from flexfmu.assembly import build_beam_model
+        from flexfmu.scene import builtin_scene_names, load_scene
+
+        _check_options("beam", options)
+        name = spec[len(BEAM_PREFIX):].strip()
+        scenes = builtin_scene_names()
+        if name not in scenes and not Path(name).is_file():
+            raise ParameterError("model", f"{spec!r}: scene {name!r} is neither a built-in scene nor an existing file",
+                                 "beam:<" + " | ".join(scenes) + " | path to a scene JSON>")
+        n = options.get("elements_per_segment", DEFAULT_ELEMENTS_PER_SEGMENT)
+        structure = build_beam_model(load_scene(name), "free", n,
+                                     rotary_inertia=bool(options.get("rotary_inertia", False))).structure()
+        kind = "beam"
+    elif spec.lower().endswith(".npz"):
+        from flexfmu.io import load_structure
+
+        _check_options("npz", options)
+        if not Path(spec).is_file():
+            raise ParameterError("model", f"no such file: {spec}", MODEL_ALLOWED)
+        structure = load_structure(spec)
+        kind = "npz"
+    else:
+        raise ParameterError("model", f"{spec!r} is not a known model", MODEL_ALLOWED)
+    structure.meta = dict(structure.meta or {})
+    structure.meta.update(model=spec, kind=kind)
+    return structure
+
+
+def _named_point(structure: Structure, name: str):
+    pts = structure.meta.get("points") if isinstance(structure.meta, dict) else None
+    if isinstance(pts, dict) and name in pts:
+        return int(pts[name])
+    return None
+
+
+def default_load_point(structure: Structure) -> int:
+    """Node index of the default load point: the paper's load point on the plate (``meta["points"]["load"]``),
+    else the last node (the free end of a bent rod)."""
+    i = _named_point(structure, "load")
+    return i if i is not None else int(np.asarray(structure.nodes).shape[0] - 1)
+
+
+def default_output_point(structure: Structure) -> int:
+    """Node index of the default output point: P1 on the plate (``meta["points"]["P1"]``), else the first node."""
+    i = _named_point(structure, "P1")
+    return i if i is not None else 0
