@@ -5,7 +5,9 @@ modelDescription.xml with what pythonfmu cannot declare and validate the result 
     python build_scripts/build_fmus.py [--out dist]       (also: flexfmu build)
 
 Post-processing: units and UnitDefinitions, a DefaultExperiment, outputs declared
-initial="calculated" with InitialUnknowns (their start values depend on the parameters).
+initial="calculated" with InitialUnknowns (their start values depend on the parameters), and the
+fmi2 shim (build_scripts/fmi2_shim.c) in front of pythonfmu's Linux binary so that a logged error
+returns fmi2Error instead of pythonfmu's fmi2Fatal.
 """
 from __future__ import annotations
 
@@ -84,6 +86,15 @@ def _rewrite_model_description(fmu: Path, info: dict, experiment: dict) -> None:
     tmp.replace(fmu)
 
 
+def _apply_shim(fmu: Path) -> None:
+    """Put the fmi2Error shim (build_scripts/fmi2_shim.c) in front of pythonfmu's Linux binary."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("fmi2_shim", Path(__file__).resolve().with_name("fmi2_shim.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.apply_shim(fmu)
+
+
 def build(out: Path) -> list[Path]:
     from fmpy.validation import validate_fmu
     from pythonfmu.builder import FmuBuilder
@@ -98,6 +109,7 @@ def build(out: Path) -> list[Path]:
             fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package, SLAVE_BASE],
                                             canGetAndSetFMUstate=True, canSerializeFMUstate=True))
             _rewrite_model_description(fmu, info, experiment)
+            _apply_shim(fmu)
             target = out / f"{name}.fmu"
             shutil.move(str(fmu), target)
         problems = validate_fmu(str(target))

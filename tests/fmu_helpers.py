@@ -31,7 +31,7 @@ class Instance:
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
         self.log: list[tuple[int, str, str]] = []
-        self.failed = False   # after fmi2Fatal (pythonfmu's status for a Python exception) no call is allowed
+        self.failed = False   # set after a failed call; see free()
 
         def logger(component, instance_name, status, category, message):
             self.log.append((status, (category or b"").decode(), (message or b"").decode()))
@@ -71,16 +71,16 @@ class Instance:
         return "\n".join(m for _, _, m in self.log)
 
     def expect_failure(self, call, *args, **kwargs):
-        """Run an FMI call that must fail; returns the exception.  The instance is not used again."""
+        """Run an FMI call that must fail with fmi2Error (status 3); returns the exception."""
         try:
             call(*args, **kwargs)
-        except Exception as exc:   # fmpy raises FMICallException
+        except Exception as exc:   # fmpy raises FMICallException with .status
             self.failed = True
+            assert getattr(exc, "status", None) == 3, f"expected fmi2Error (3), got {exc!r}"
             return exc
         raise AssertionError(f"{getattr(call, '__name__', call)} did not fail")
 
     def free(self):
-        if self.failed:
-            return   # FMI 2.0: after fmi2Fatal no function may be called, not even fmi2FreeInstance
+        """Terminate and free; after fmi2Error the FMI standard allows both (the shim makes them safe)."""
         self.fmu.terminate()
         self.fmu.freeInstance()
