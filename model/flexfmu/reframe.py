@@ -269,7 +269,7 @@ class ReframeResult:
     """Time histories from :meth:`ReframeIntegrator.run` (first axis: the n_t output times).
 
     t (n_t,); frame_origin (n_t, 3): global position of the body frame origin (mesh origin of the
-    dummy body); rotation (n_t, 3, 3) body -> global; quaternion (n_t, 4) (w, x, y, z);
+    dummy body); frame_origin_velocity (n_t, 3) its time derivative, global; rotation (n_t, 3, 3) body -> global; quaternion (n_t, 4) (w, x, y, z);
     omega, alpha (n_t, 3) body frame, rad/s, rad/s^2; com_position, com_velocity (n_t, 3) global;
     q, qd (n_t, n_flexible) flexible modal coordinates / velocities; max_elastic_displacement (n_t,)
     max over nodes of |elastic translation|, m; points (n_p,) node indices; point_position,
@@ -280,6 +280,7 @@ class ReframeResult:
 
     t: np.ndarray
     frame_origin: np.ndarray
+    frame_origin_velocity: np.ndarray
     rotation: np.ndarray
     quaternion: np.ndarray
     omega: np.ndarray
@@ -930,7 +931,8 @@ class ReframeIntegrator:
             vel_f = (d.Psi @ s.eta[nm:])[tr] @ R.T
             acc_f = acc_r + udd @ R.T
         umax = float(np.max(np.linalg.norm((d.Phi @ s.eta[N_RIGID:nm])[d.trans_rows], axis=1))) if d.nf else 0.0
-        return w, alpha, vcom, umax, (pos_f, vel_f, acc_f, pos_r, vel_r, acc_r)
+        v_origin = R @ (v + _cross(w, -d.com))          # d/dt of the frame origin, rigid with the dummy body
+        return w, alpha, vcom, umax, v_origin, (pos_f, vel_f, acc_f, pos_r, vel_r, acc_r)
 
     def run(self, t_end: float, dt: float, load=None, points=(), *, state: ReframeState | None = None,
             every: int = 1) -> ReframeResult:
@@ -957,20 +959,8 @@ class ReframeIntegrator:
             if (n + 1) % every == 0 or n + 1 == n_steps:
                 rec.append(self.snapshot(s, loads, pts))
         self.state = s
-
-        def stack(name):
-            return np.array([getattr(r, name) for r in rec])
-
-        kin = list(zip(*[r.points for r in rec]))
-        return ReframeResult(
-            t=stack("t"), frame_origin=stack("frame_origin"), rotation=stack("rotation"),
-            quaternion=stack("quaternion"), omega=stack("omega"), alpha=stack("alpha"),
-            com_position=stack("com_position"), com_velocity=stack("com_velocity"), q=stack("q"),
-            qd=stack("qd"), max_elastic_displacement=stack("max_elastic_displacement"), points=pts,
-            point_position=np.array(kin[0]), point_velocity=np.array(kin[1]),
-            point_acceleration=np.array(kin[2]), point_position_rigid=np.array(kin[3]),
-            point_velocity_rigid=np.array(kin[4]), point_acceleration_rigid=np.array(kin[5]),
-            final_state=s)
+        stacked = {name: np.array([getattr(r, name) for r in rec]) for name in Snapshot.__dataclass_fields__}
+        return ReframeResult(points=pts, final_state=s, **stacked)
 
     # ---------------------------------------------------------------- single-state outputs (FMU, CLI)
     def prepare_loads(self, load) -> "_Prepared":
@@ -983,22 +973,25 @@ class ReframeIntegrator:
 
     def snapshot(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> "Snapshot":
         """All outputs of one state (the loads enter the accelerations)."""
-        w, alpha, vcom, umax, kin = self._outputs(state, loads.items, points)
+        w, alpha, vcom, umax, v_origin, kin = self._outputs(state, loads.items, points)
         nm = self.data.n_modes
         return Snapshot(t=state.t, frame_origin=state.position - state.rotation @ self.data.com,
-                        rotation=state.rotation.copy(), quaternion=quaternion_from_rotation(state.rotation),
-                        omega=w, alpha=alpha, com_position=state.position.copy(), com_velocity=vcom,
-                        q=state.eta[N_RIGID:nm].copy(), qd=state.eta[nm + N_RIGID:].copy(),
-                        max_elastic_displacement=umax, points=kin)
+                        frame_origin_velocity=v_origin, rotation=state.rotation.copy(),
+                        quaternion=quaternion_from_rotation(state.rotation), omega=w, alpha=alpha,
+                        com_position=state.position.copy(), com_velocity=vcom, q=state.eta[N_RIGID:nm].copy(),
+                        qd=state.eta[nm + N_RIGID:].copy(), max_elastic_displacement=umax,
+                        point_position=kin[0], point_velocity=kin[1], point_acceleration=kin[2],
+                        point_position_rigid=kin[3], point_velocity_rigid=kin[4], point_acceleration_rigid=kin[5])
 
 
 @dataclass
 class Snapshot:
-    """Outputs of one state; fields as in :class:`ReframeResult` without the time axis.  ``points`` is
-    (position, velocity, acceleration, position_rigid, velocity_rigid, acceleration_rigid), each (n_p, 3)."""
+    """Outputs of one state: the fields of :class:`ReframeResult` without the time axis (point fields
+    (n_p, 3))."""
 
     t: float
     frame_origin: np.ndarray
+    frame_origin_velocity: np.ndarray
     rotation: np.ndarray
     quaternion: np.ndarray
     omega: np.ndarray
@@ -1008,7 +1001,12 @@ class Snapshot:
     q: np.ndarray
     qd: np.ndarray
     max_elastic_displacement: float
-    points: tuple
+    point_position: np.ndarray
+    point_velocity: np.ndarray
+    point_acceleration: np.ndarray
+    point_position_rigid: np.ndarray
+    point_velocity_rigid: np.ndarray
+    point_acceleration_rigid: np.ndarray
 
 
 class _Prepared:

@@ -28,6 +28,16 @@ OUTPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES
 _AUTO_STEP_FRACTION = 0.9   # of the RK4 stability limit, for internal_step = 0
 
 
+def output_values(outputs) -> np.ndarray:
+    """The OUTPUT_NAMES columns of a reframe Snapshot (shape (34,)) or ReframeResult ((n_t, 34)); the
+    output point is the first recorded point.  Used by the FMU and by ``flexfmu reframe --out``."""
+    parts = [outputs.frame_origin, outputs.frame_origin_velocity, outputs.quaternion, outputs.omega,
+             outputs.alpha, outputs.com_position, outputs.com_velocity, outputs.point_position[..., 0, :],
+             outputs.point_velocity[..., 0, :], outputs.point_acceleration[..., 0, :],
+             outputs.point_acceleration_rigid[..., 0, :], np.asarray(outputs.max_elastic_displacement)[..., None]]
+    return np.concatenate(parts, axis=-1)
+
+
 @dataclass(frozen=True)
 class ReframeBodyConfig:
     """Parameters, named and defaulted as in the FMU (defaults: the paper's plate and load case)."""
@@ -121,15 +131,7 @@ class ReframeBodySimulator:
 
     def outputs(self) -> dict[str, float]:
         snap = self.integrator.snapshot(self.state, self._loads, self._points)
-        R = snap.rotation
-        com_body = self.integrator.data.com
-        # velocity of the frame origin, moving rigidly with the dummy body
-        vel = snap.com_velocity + R @ np.cross(snap.omega, -com_body)
-        pos_f, vel_f, acc_f, _, _, acc_r = (k[0] for k in snap.points)
-        values = np.concatenate([snap.frame_origin, vel, snap.quaternion, snap.omega, snap.alpha,
-                                 snap.com_position, snap.com_velocity, pos_f, vel_f, acc_f, acc_r,
-                                 [snap.max_elastic_displacement]])
-        return dict(zip(OUTPUT_NAMES, values.tolist()))
+        return dict(zip(OUTPUT_NAMES, output_values(snap).tolist()))
 
     # ---- state for FMI get/set/serialize: plain JSON-able data
     def get_state(self) -> dict:
