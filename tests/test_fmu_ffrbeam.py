@@ -174,3 +174,34 @@ def test_fixed_parameter_cannot_change_after_initialisation(ffr):
     inst = ffr().initialize()
     inst.expect_failure(inst.set, damping_ratio=0.3)
     assert any("damping_ratio" in message and "after initialisation" in message for _, _, message in inst.log)
+
+
+def test_reset_gives_a_fresh_instance(ffr):
+    """fmi2Reset, then the same experiment again: the outputs equal a fresh instance's."""
+    fresh = _run(ffr("fresh").initialize(), 12)
+    inst = ffr("reused").initialize()
+    _run(inst, 7)
+    inst.fmu.reset()
+    inst.fmu.setupExperiment(startTime=0.0)
+    inst.fmu.enterInitializationMode()
+    inst.fmu.exitInitializationMode()
+    assert np.array_equal(_run(inst, 12), fresh)
+
+
+def test_divergence_is_an_error_not_nan(ffr):
+    """Spin far above the first bending frequency (no geometric stiffening in a linear FFR model):
+    the elastic state grows exponentially; the FMU stops with fmi2Error before any output is NaN."""
+    inst = ffr().initialize()
+    inst.set(base_w_z=2000.0, F_y=1.0)
+    h, last = 1e-3, None
+    for k in range(200):
+        try:
+            inst.fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
+        except Exception as exc:
+            assert getattr(exc, "status", None) == 3
+            break
+        last = inst.get("tip_u_x", "tip_u_y", "tip_u_z", "elastic_energy")
+        assert np.all(np.isfinite(last))
+    else:
+        raise AssertionError("the spinning rod did not diverge")
+    assert any("diverged" in message for _, _, message in inst.log), inst.log
