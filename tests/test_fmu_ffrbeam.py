@@ -7,29 +7,14 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 from scipy.signal import find_peaks
 
-from fmu_helpers import Instance, build_fmus
 from flexfmu.assembly import build_beam_model
 from flexfmu.kinematics import point_shape
 from flexfmu.scene import load_scene
 
 
-@pytest.fixture(scope="session")
-def fmus(tmp_path_factory):
-    return build_fmus(tmp_path_factory.mktemp("dist"))
-
-
 @pytest.fixture
-def ffr(fmus):
-    made = []
-
-    def make(name="ffr", **start):
-        inst = Instance(fmus["FFRBeam"], name, **start)
-        made.append(inst)
-        return inst
-
-    yield make
-    for inst in made:
-        inst.free()
+def ffr(fmu_instance):
+    return lambda name="ffr", **start: fmu_instance("FFRBeam", name, **start)
 
 
 def test_fmpy_validate_reports_no_problems(fmus):

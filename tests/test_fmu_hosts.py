@@ -8,18 +8,13 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from fmu_helpers import Instance, build_fmus
+from fmu_helpers import Instance
 
 from libcosimpy.CosimExecution import CosimExecution
 from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 from libcosimpy.CosimManipulator import CosimManipulator
 from libcosimpy.CosimObserver import CosimObserver
 from libcosimpy.CosimSlave import CosimLocalSlave
-
-
-@pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    return build_fmus(tmp_path_factory.mktemp("dist"))
 
 
 @pytest.mark.parametrize("name", ["FFRBeam", "ReframeBody"])

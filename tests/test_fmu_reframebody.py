@@ -3,30 +3,15 @@ import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 
-from fmu_helpers import Instance, build_fmus
 from flexfmu.modal_basis import modal_basis
 from flexfmu.models import load_model
 from flexfmu.plate import LOAD_POINT
 from flexfmu.reframe import PointLoad, ReframeIntegrator, constant_load
 
 
-@pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    return build_fmus(tmp_path_factory.mktemp("dist"))
-
-
 @pytest.fixture
-def body(fmus):
-    made = []
-
-    def make(name="body", **start):
-        inst = Instance(fmus["ReframeBody"], name, **start)
-        made.append(inst)
-        return inst
-
-    yield make
-    for inst in made:
-        inst.free()
+def body(fmu_instance):
+    return lambda name="body", **start: fmu_instance("ReframeBody", name, **start)
 
 
 def test_fmpy_validate_reports_no_problems(fmus):
