@@ -16,6 +16,7 @@ from flexfmu.errors import ParameterError, require
 from flexfmu.ffr_dynamics import BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.modal import solve_modes
 from flexfmu.scene import check_arc_length, load_scene
+from flexfmu.vec3 import cross as _cross
 
 AXES = ("x", "y", "z")
 FORCE_INPUTS = tuple(f"F_{a}" for a in AXES) + tuple(f"M_{a}" for a in AXES)
@@ -28,6 +29,7 @@ OUTPUT_NAMES = (tuple(f"sensor_{k}_{a}" for k in "uva" for a in AXES) + tuple(f"
                 + tuple(f"f_{i}" for i in range(1, N_REPORTED_FREQUENCIES + 1)) + ("elastic_energy",))
 # The state norm beyond which a run counts as diverged (m-scale modal coordinates of a rod).
 _DIVERGENCE_LIMIT = 1e6
+_NO_ROTATION = BaseMotion()
 
 
 @dataclass(frozen=True)
@@ -83,6 +85,10 @@ class FFRBeamSimulator:
         self.dynamics, self.frequencies_hz = _build(config)
         self.state = self.dynamics.initial_state()
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
+        self._u = np.zeros(len(INPUT_NAMES))          # the inputs as a vector, INPUT_NAMES order
+        self._k = self.dynamics.stiffness
+        self._map_cache: dict = {}
+        self._x, self._x_state = None, None
 
     @property
     def time(self) -> float:
@@ -106,20 +112,91 @@ class FFRBeamSimulator:
     def set_inputs(self, **inputs: float) -> None:
         self.check_inputs(inputs)
         self.inputs.update({k: float(v) for k, v in inputs.items()})
+        self._u = np.array([self.inputs[name] for name in INPUT_NAMES])
+
+    def set_input_vector(self, values) -> None:
+        """All inputs at once, in INPUT_NAMES order (the FMU's per-step path)."""
+        u = np.array(values, dtype=float)
+        if u.shape != (len(INPUT_NAMES),) or not np.isfinite(u).all():
+            self.check_inputs(dict(zip(INPUT_NAMES, np.resize(u, len(INPUT_NAMES)).tolist())))
+            require(u.shape == (len(INPUT_NAMES),), "inputs", f"{u.shape[0] if u.ndim else 0} values",
+                    f"{len(INPUT_NAMES)} values")
+        self._u = u
+        self.inputs = dict(zip(INPUT_NAMES, u.tolist()))
+
+    def _maps(self, h):
+        """(Ad, Bu, b0 or None, Cx, Cu, y0) for step h (None: outputs only) and the held base rotation,
+        cached: the step and the outputs are then a few matrix-vector products."""
+        u = self._u
+        rot = tuple(u[9:15].tolist())
+        key = (h, rot)
+        hit = self._map_cache.get(key)
+        if hit is None:
+            base = BaseMotion(omega=u[9:12].copy(), alpha=u[12:15].copy())
+            Ad, Bu, b0, C, y0 = self.dynamics.fast_maps(h, base)
+            n = C.shape[1] - 9
+            Cx = np.zeros((len(OUTPUT_NAMES), n))
+            Cu = np.zeros((len(OUTPUT_NAMES), 9))
+            Cx[:18], Cu[:18] = C[:, :n], C[:, n:]
+            y = np.zeros(len(OUTPUT_NAMES))
+            y[:18] = y0
+            y[18:18 + N_REPORTED_FREQUENCIES] = self.frequencies_hz
+            if len(self._map_cache) > 64:
+                self._map_cache.clear()
+            hit = self._map_cache[key] = (Ad, Bu, b0 if (b0 is not None and b0.any()) else None,
+                                          np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y)
+        return hit
 
     def step(self, step_size: float) -> None:
-        """Advance by step_size (s) with the current inputs held."""
+        """Advance by step_size (s) with the current inputs held (exact zero-order hold, cached maps)."""
         require(np.isfinite(step_size) and step_size > 0, "step_size", f"got {step_size!r}", "> 0 s")
-        force, moment, base = self._vectors()
-        new = self.dynamics.step(self.state, step_size, force, moment, base)
-        size = float(np.max(np.abs(np.concatenate([new.eta, new.eta_dot]))))
-        if not np.isfinite(size) or size > _DIVERGENCE_LIMIT:
-            raise ParameterError("state", f"diverged at t = {new.t:.6g} s (modal state norm {size:.3g})",
-                                 "inputs within the linear model's range; spin below the first bending frequency")
-        self.state = new
+        Ad, Bu, b0, _, _, _ = self._maps(float(step_size))
+        st = self.state
+        m = st.eta.shape[0]
+        x = Ad @ self._stacked()
+        u = self._u[:9]
+        if u.any():
+            x += Bu @ u
+        if b0 is not None:
+            x += b0
+        t = st.t + step_size
+        if not float(x @ x) <= _DIVERGENCE_LIMIT ** 2:      # max |x| <= |x|: only then the exact check
+            size = float(np.max(np.abs(x)))
+            if not np.isfinite(size) or size > _DIVERGENCE_LIMIT:
+                raise ParameterError("state", f"diverged at t = {t:.6g} s (modal state norm {size:.3g})",
+                                     "inputs within the linear model's range; spin below the first bending frequency")
+        self.state = ModalState(x[:m], x[m:], t)
+        self._x, self._x_state = x, self.state
+
+    def _stacked(self) -> np.ndarray:
+        """[eta; eta_dot] of self.state (kept from the last step unless the state was replaced)."""
+        st = self.state
+        if self._x_state is not st:
+            self._x = np.concatenate((st.eta, st.eta_dot))
+            self._x_state = st
+        return self._x
+
+    def output_vector(self) -> np.ndarray:
+        """All outputs at the current time for the current inputs (body frame, SI), OUTPUT_NAMES order."""
+        _, _, _, Cx, Cu, y0 = self._maps(None)
+        x = self._stacked()
+        eta = self.state.eta
+        y = Cx @ x
+        y += y0
+        u = self._u[:9]
+        if u.any():
+            y += Cu @ u
+            dyn = self.dynamics
+            y[15:18] += _cross(dyn.load_disp_map @ eta, u[0:3]) - _cross(dyn.S_bar_hat @ eta, u[6:9])
+        y[-1] = 0.5 * float(eta @ (self._k * eta))
+        return y
 
     def outputs(self) -> dict[str, float]:
         """All outputs at the current time for the current inputs (body frame, SI)."""
+        return dict(zip(OUTPUT_NAMES, self.output_vector().tolist()))
+
+    def reference_outputs(self) -> dict[str, float]:
+        """:meth:`outputs` through the term-by-term formulas of FFRBeamDynamics (tests)."""
         dyn, state = self.dynamics, self.state
         force, moment, base = self._vectors()
         eta_ddot = dyn.acceleration(state, force, moment, base)
@@ -139,6 +216,7 @@ class FFRBeamSimulator:
                 "a state of this instance's configuration")
         self.state = ModalState(np.array(data["eta"], float), np.array(data["eta_dot"], float), float(data["t"]))
         self.inputs = dict(data["inputs"])
+        self._u = np.array([self.inputs[name] for name in INPUT_NAMES], dtype=float)
 
 
 def _axis_info(prefix: str, unit: str, text: str) -> dict:

@@ -173,7 +173,11 @@ class FFRBeamDynamics:
         self.load_moment_map = Phi.T @ self.load.full_rotation(n).T     # (m, 3)
         self.sensor_map = self.sensor.full_translation(n) @ Phi          # (3, m)
         self.tip_map = self.tip.full_translation(n) @ Phi
+        self.load_disp_map = self.load.full_translation(n) @ Phi         # (3, m)
+        # Reaction integrals in modal coordinates: int rho S q = S_bar_hat eta; the cross integrals
+        # int rho u0 x (S q) etc. go through P_hat (3, 3, m).
         self._cache: dict = {}
+        self._fast_cache: dict = {}
 
     # ------------------------------------------------------------ equations of motion
     def _matrices(self, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:
@@ -271,6 +275,60 @@ class FFRBeamDynamics:
         r_F = self.load.undeformed_body + self.load.displacement_body(q)
         moment_on_base = np.asarray(moment_body, float) + _cross(r_F, force_body) - moment_rate
         return force_on_base, moment_on_base
+
+    # ------------------------------------------------------------ the same, as cached affine maps (FMU hot path)
+    def fast_maps(self, h: float, base: BaseMotion):
+        """Step and output maps for step h with the base rotation (omega, alpha) of ``base`` held, in
+        the modal state x = [eta; eta_dot] and the input u = [F, M, a0] (body frame):
+
+            x+ = Ad x + Bu u + b0
+            y  = Cx x + Du u + y0 + [0 (18); cross(L eta, F) - cross(S_bar_hat eta, a0)]
+
+        with y = [sensor u, sensor v, sensor a, tip u, reaction F, reaction M] (18 values): the same
+        quantities as :meth:`step`, :meth:`sensor_motion`, :meth:`tip_displacement` and
+        :meth:`reactions` (tests/test_performance_equivalence.py), at O(m^2) per step.  Cached per
+        (h, omega, alpha); ``h = None`` gives the output maps only."""
+        key = (h, base.key())
+        hit = self._fast_cache.get(key)
+        if hit is not None:
+            return hit
+        m = self.m
+        ints = self.integrals
+        w, al = np.asarray(base.omega, float), np.asarray(base.alpha, float)
+        W = _skew(w)
+        X = _skew(al) + W @ W
+        K_eff, C_eff = self._matrices(base)
+        Fm = np.hstack([self.load_force_map, self.load_moment_map, -self.F_a0])      # (m, 9)
+        p = np.einsum("ab,abk->k", X, self.P_hat)
+        Ax = np.hstack([-K_eff, -C_eff])                                            # eta_ddot = Ax x + Fm u - p
+        Z3m, I3, Z3 = np.zeros((3, m)), np.eye(3), np.zeros((3, 3))
+        Sm, Sb = self.sensor_map, self.S_bar_hat
+        u0 = self.sensor.undeformed_body
+
+        def ci_cols(f):
+            return np.column_stack([_cross_integral(f(self.P_hat[:, :, k])) for k in range(m)]) if m else Z3m
+
+        L_eta = ci_cols(lambda Pk: Pk @ X.T) + ci_cols(lambda Pk: (X @ Pk).T)
+        L_v = ci_cols(lambda Pk: (2 * W @ Pk).T)
+        L_a = ci_cols(lambda Pk: Pk.T)
+        rows_x = [np.hstack([Sm, Z3m]), np.hstack([Z3m, Sm]), np.hstack([X @ Sm, 2 * W @ Sm]) + Sm @ Ax,
+                  np.hstack([self.tip_map, Z3m]), -(np.hstack([X @ Sb, 2 * W @ Sb]) + Sb @ Ax),
+                  -(np.hstack([L_eta, L_v]) + L_a @ Ax)]
+        rows_u = [np.zeros((3, 9)), np.zeros((3, 9)), np.hstack([Z3, Z3, I3]) + Sm @ Fm, np.zeros((3, 9)),
+                  np.hstack([I3, Z3, -ints.mass * I3]) - Sb @ Fm,
+                  np.hstack([_skew(self.load.undeformed_body), I3, -_skew(ints.first_moment)]) - L_a @ Fm]
+        y0 = np.concatenate([np.zeros(6), X @ u0 - Sm @ p, np.zeros(3), -(X @ ints.first_moment - Sb @ p),
+                             -(ints.J0 @ al + _cross(w, ints.J0 @ w) - L_a @ p)])
+        C = np.ascontiguousarray(np.hstack([np.vstack(rows_x), np.vstack(rows_u)]))    # (18, 2m + 9)
+        if h is None:
+            Ad = Bu = b0 = None
+        else:
+            Ad, Bd = self._transition(float(h), base)
+            Bu, b0 = Bd @ Fm, -(Bd @ p)
+        if len(self._fast_cache) > 64:
+            self._fast_cache.clear()
+        hit = self._fast_cache[key] = (Ad, Bu, b0, C, y0)
+        return hit
 
     def tip_displacement(self, state: ModalState) -> np.ndarray:
         return self.tip_map @ state.eta

@@ -16,7 +16,7 @@ Two schemes (``scheme=``):
     (global components), the angular momentum (frame-n components) and the flexible modal
     coordinates and their conjugate momenta.  The equations are the Euler-Poincare (Kirchhoff)
     equations of the kinetic energy of the conventional model's mass matrix evaluated with the nodal
-    velocities of the moving, deformed body (see ``_rhs``), so the conventional M, K, modal basis
+    velocities of the moving, deformed body (``flexfmu._reframe_kernels._rhs``), so the conventional M, K, modal basis
     are all that is used.  After the step the frame is re-configured onto the dummy body at t_{n+1}:
     the whole rigid part is absorbed into the frame pose (q_R = 0 always) and the momenta are
     expressed in the new frame.  In the dt -> 0 limit this is a modally reduced floating-frame model
@@ -83,6 +83,13 @@ _RIGID_RTOL = 1e-8       # |K psi_rigid| / (|K| |psi_rigid|) allowed for the fir
 
 
 # --------------------------------------------------------------------------- small helpers
+def _kernels():
+    """flexfmu._reframe_kernels, imported on first use (it imports numba when available)."""
+    from flexfmu import _reframe_kernels
+
+    return _reframe_kernels
+
+
 def _rodrigues(phi):
     """exp(skew(phi)): body -> reference rotation (= scipy ``Rotation.from_rotvec(phi).as_matrix()``)."""
     th2 = float(phi @ phi)
@@ -132,6 +139,10 @@ def _check_dt(dt):
 
 
 # --------------------------------------------------------------------------- loads
+_ZERO3 = np.zeros(3)
+_ZERO3.flags.writeable = False
+
+
 class _History:
     """A load history: callable f(t) -> (3,), a table (times, values) or a constant 3-vector."""
 
@@ -158,6 +169,23 @@ class _History:
         else:
             self.kind = "constant"
             self.value = _finite_vec3(spec, name)
+
+    @property
+    def constant(self) -> bool:
+        """True for a zero or constant history (its value does not depend on t)."""
+        return self.kind in ("zero", "constant")
+
+    def raw(self, t):
+        """The value at t without the checks of ``__call__`` (hot loop: the kernel checks finiteness, and
+        on any problem the caller re-evaluates through ``__call__`` for the error message)."""
+        kind = self.kind
+        if kind == "callable":
+            return self.fn(t)
+        if kind == "constant":
+            return self.value
+        if kind == "zero":
+            return _ZERO3
+        return self(t)
 
     def __call__(self, t):
         if self.kind == "zero":
@@ -446,6 +474,7 @@ class ReframeIntegrator:
         d = self.data = _ModelData(structure, basis)
         self._setup_reference_points(reference_points)
         self._setup_consistent() if scheme == "consistent" else self._setup_paper()
+        self._setup_max_displacement()
         self.state = self.initial_state()
 
     # ---------------------------------------------------------------- setup
@@ -497,46 +526,85 @@ class ReframeIntegrator:
 
         with A(q) = sum q_j T^T M S_j (0 for an isotropic mass matrix), J(q) = S(y)^T M S(y),
         D(q) = sum q_j S_j^T M Phi (T^T M Phi = S0^T M Phi = 0: Phi is M-orthogonal to the rigid modes).
+        The invariants come from a few sparse-times-dense and dense products (BLAS), O(nnz(M) nf +
+        n_dof nf^2); the step kernel (flexfmu._reframe_kernels) then costs O(nf^2) whatever the mesh.
         """
         d = self.data
-        nd, nf = d.n_dof, d.nf
+        nd, nf, N = d.n_dof, d.nf, d.n_nodes
         tr = d.trans_rows
-        S0 = np.zeros((nd, 3))
         T = np.zeros((nd, 3))
+        S0 = np.zeros((nd, 3))
         for k in range(3):
-            ek = np.eye(3)[k]
             T[tr[:, k], k] = 1.0
-            rot = np.cross(ek, d.Xc)
-            for j in range(3):
-                S0[tr[:, j], k] = rot[:, j]
+            S0[tr, k] = np.cross(np.eye(3)[k], d.Xc)
             if d.rot_rows is not None:
                 S0[d.rot_rows[:, k], k] = 1.0
-        MS0 = d.M @ S0
-        self._J0 = S0.T @ MS0
-        self._J0 = 0.5 * (self._J0 + self._J0.T)
-        mT = T.T @ (d.M @ T)
-        self._m = float(np.mean(np.diag(mT)))
-        Sj = np.zeros((nf, nd, 3))
-        for j in range(nf):
-            u = d.Phi[tr, j]                                    # (N, 3)
-            for k in range(3):
-                rot = np.cross(np.eye(3)[k], u)
-                for i in range(3):
-                    Sj[j, tr[:, i], k] = rot[:, i]
-        MSj = np.stack([d.M @ Sj[j] for j in range(nf)]) if nf else np.zeros((0, nd, 3))
-        MPhi = d.M @ d.Phi
-        self._Aj = np.einsum("na,jnb->jab", T, MSj)           # T^T M S_j
-        self._Bj = np.einsum("na,jnb->jab", S0, MSj)          # S0^T M S_j
-        self._Cjk = np.einsum("jna,knb->jkab", Sj, MSj)       # S_j^T M S_k
-        self._Dj = np.einsum("jna,nk->jak", Sj, MPhi)         # S_j^T M Phi
-        self._Bsym = self._Bj + np.transpose(self._Bj, (0, 2, 1))
-        self._Aj_flat = self._Aj.reshape(nf, 9)
-        self._Bsym_flat = self._Bsym.reshape(nf, 9)
-        self._Cjk_flat = self._Cjk.reshape(nf, nf * 9)
-        self._Dj_flat = self._Dj.reshape(nf, 3 * nf)
+        J0 = S0.T @ (d.M @ S0)
+        self._J0 = 0.5 * (J0 + J0.T)
+        self._m = float(np.mean(np.diag(T.T @ (d.M @ T))))
+        # SJ[:, 3 j + k] = S_j e_k = e_k x phi_j on the translational rows.
+        U = d.Phi[tr]                                             # (N, 3, nf) translational mode shapes
+        SJ = np.zeros((nd, nf, 3))
+        for k in range(3):
+            SJ[tr, :, k] = np.cross(np.eye(3)[k][None, :, None], U, axisa=1, axisb=1, axisc=1)
+        SJ = SJ.reshape(nd, 3 * nf)
+        MSJ = np.asarray(d.M @ SJ)
+        self._Aj = (T.T @ MSJ).reshape(3, nf, 3).transpose(1, 0, 2).copy()         # T^T M S_j
+        Bj = (S0.T @ MSJ).reshape(3, nf, 3).transpose(1, 0, 2)                   # S0^T M S_j
+        self._Bsym = Bj + np.transpose(Bj, (0, 2, 1))
+        C = SJ.T @ MSJ
+        C = 0.5 * (C + C.T)                                 # exactly C_kj = C_jk^T (the kernels rely on it)
+        self._Cjk = C.reshape(nf, 3, nf, 3).transpose(0, 2, 1, 3).copy()  # S_j^T M S_k
+        self._Dj = (MSJ.T @ d.Phi).reshape(nf, 3, nf)                          # S_j^T M Phi
         self._kF = d.kq[N_RIGID:]
         self._cF = d.cq[N_RIGID:]
-        self._T, self._S0, self._Sj = T, S0, Sj
+        del SJ, MSJ
+        kern = _kernels()
+        P = np.concatenate([[self._m], self._J0.ravel(), self._Aj.ravel(), self._Bsym.ravel(), self._Cjk.ravel(),
+                            self._Dj.ravel(), self._kF, self._cF, d.A6.ravel(), d.A6inv.ravel(), d.com])
+        assert P.size == kern.param_size(nf)
+        self._P = np.ascontiguousarray(P, dtype=float)
+        self._points_cache = {}
+        del N
+
+    def _setup_max_displacement(self):
+        """Node blocks for the exact max elastic displacement (_reframe_kernels.max_node_norm): nodes in
+        Morton (Z-curve) order of their coordinates; per block and superblock the mean of the nodes'
+        translational mode-shape rows and the largest distance of a node's rows from it."""
+        d = self.data
+        kern = _kernels()
+        B = kern.BLOCK
+        span = max(float(np.max(np.ptp(d.nodes, axis=0))), 1e-300)          # one scale: compact blocks
+        cell = np.minimum(((d.nodes - d.nodes.min(axis=0)) / span * 1023.0).astype(np.int64), 1023)
+        code = np.zeros(d.n_nodes, dtype=np.int64)
+        for bit in range(10):
+            for axis in range(3):
+                code |= ((cell[:, axis] >> bit) & 1) << (3 * bit + axis)
+        order = np.argsort(code, kind="stable")
+        U = d.Psi[d.trans_rows[order], N_RIGID:].reshape(d.n_nodes, 3 * d.nf)    # Phi_i rows, curve order
+
+        def groups(X, starts, size):
+            C = np.add.reduceat(X, starts, axis=0) / np.diff(np.append(starts, size))[:, None]
+            return C
+
+        starts = np.arange(0, d.n_nodes, B)
+        bc = groups(U, starts, d.n_nodes)
+        dist = np.sqrt(np.einsum("nk,nk->n", U - np.repeat(bc, np.diff(np.append(starts, d.n_nodes)), axis=0),
+                                 U - np.repeat(bc, np.diff(np.append(starts, d.n_nodes)), axis=0)))
+        br = np.maximum.reduceat(dist, starts)
+        sstarts = np.arange(0, bc.shape[0], B)                       # superblocks: B blocks
+        node_starts = starts[sstarts]
+        sc = groups(U, node_starts, d.n_nodes)
+        counts = np.diff(np.append(node_starts, d.n_nodes))
+        sdist = np.sqrt(np.einsum("nk,nk->n", U - np.repeat(sc, counts, axis=0), U - np.repeat(sc, counts, axis=0)))
+        sr = np.maximum.reduceat(sdist, node_starts)
+        self._umax = (np.ascontiguousarray(order, dtype=np.int64), np.ascontiguousarray(bc), np.ascontiguousarray(br),
+                      np.ascontiguousarray(sc), np.ascontiguousarray(sr))
+        self._Psi_c = np.ascontiguousarray(d.Psi)
+
+    def _max_elastic_displacement(self, q) -> float:
+        return float(_kernels().max_node_norm(self._Psi_c, N_RIGID, self.data.dpn, *self._umax,
+                                              np.ascontiguousarray(q, dtype=float)))
 
     def _setup_paper(self):
         """G_ab = Psi^T M E_ab Psi for the coordinate transformation T_{m/n} (Eqs. 36-40).
@@ -596,107 +664,56 @@ class ReframeIntegrator:
 
     def advance(self, state: ReframeState, dt: float, load=None) -> ReframeState:
         """One step from ``state`` (not modified); returns the new state."""
+        return self.advance_steps(state, dt, 1, load)
+
+    def advance_steps(self, state: ReframeState, dt: float, n_steps: int, load=None) -> ReframeState:
+        """``n_steps`` steps of dt from ``state`` (not modified): the same as as many :meth:`advance` calls
+        (same numbers), in one call of the step kernel for the consistent scheme."""
         dt = _check_dt(dt)
+        if isinstance(n_steps, bool) or not isinstance(n_steps, numbers.Integral) or n_steps < 1:
+            raise ParameterError("n_steps", f"{n_steps!r}", "integer >= 1")
         self.data.check_stability(dt)
         loads = load if isinstance(load, _Prepared) else _Prepared(self.data.resolve_loads(load))
-        new = self._consistent_step(state, dt, loads.items) if self.scheme == "consistent" \
-            else self._paper_step(state, dt, loads.items)
-        if not (np.all(np.isfinite(new.eta)) and np.all(np.isfinite(new.rotation))
-                and np.all(np.isfinite(new.position))):
-            raise FlexfmuError(f"reframe: non-finite state at t = {new.t:.6g} s (scheme {self.scheme!r})")
-        return new
+        if self.scheme == "consistent":
+            return self._consistent_steps(state, dt, int(n_steps), loads)
+        s = state
+        for _ in range(int(n_steps)):
+            s = self._paper_step(s, dt, loads.items)
+            if not (np.all(np.isfinite(s.eta)) and np.all(np.isfinite(s.rotation))
+                    and np.all(np.isfinite(s.position))):
+                raise FlexfmuError(f"reframe: non-finite state at t = {s.t:.6g} s (scheme {self.scheme!r})")
+        return s
 
     # ---------------------------------------------------------------- consistent scheme
-    def _mass_matrix(self, q):
-        nf = self.data.nf
-        n = 6 + nf
-        Mm = np.zeros((n, n))
-        Mm[0, 0] = Mm[1, 1] = Mm[2, 2] = self._m
-        if nf:
-            A = (q @ self._Aj_flat).reshape(3, 3)
-            J = self._J0 + (q @ self._Bsym_flat + q @ (q @ self._Cjk_flat).reshape(nf, 9)).reshape(3, 3)
-            D = (q @ self._Dj_flat).reshape(3, nf)
-            Mm[0:3, 3:6] = A
-            Mm[3:6, 0:3] = A.T
-            Mm[3:6, 6:] = D
-            Mm[6:, 3:6] = D.T
-            Mm[6:, 6:] = np.eye(nf)
-        else:
-            J = self._J0
-        Mm[3:6, 3:6] = J
-        return Mm
-
-    def _dTdq(self, v, w, q, qd):
-        """dT/dq_j = v^T A_j w + w^T B_j w + sum_k q_k w^T C_jk w + w^T D_j qdot."""
-        t1 = (self._Aj @ w) @ v
-        t2 = (self._Bj @ w) @ w
-        t3 = ((self._Cjk @ w) @ w) @ q
-        t4 = (self._Dj @ qd) @ w
-        return t1 + t2 + t3 + t4
-
-    def _loads_body(self, t, R, q, loads):
-        """Global force sum, body moment about the frame point, flexible generalised forces."""
+    def _kernel_loads(self, loads: "_Prepared") -> np.ndarray:
+        """Node data of the loads for the step kernel: per load [follower, rotational DOFs, arm (3),
+        translational rows of Phi (3 nf), rotational rows (3 nf)]; cached on ``loads``."""
+        cached = loads._kernel
+        if cached is not None and cached[0] is self:
+            return cached[1]
         d = self.data
-        F_g = np.zeros(3)
-        N_b = np.zeros(3)
-        Q = np.zeros(d.nf)
-        for ld in loads:
-            f = ld.force(t)
-            m = ld.moment(t)
-            if ld.follower:
-                f_b, F_g = f, F_g + R @ f
-                m_b = m
-            else:
-                f_b, F_g = R.T @ f, F_g + f
-                m_b = R.T @ m
-            rows = d.trans_rows[ld.node]
-            arm = d.Xc[ld.node]
-            if d.nf:
-                Phi_i = d.Phi[rows]
-                if self.deformed_load_arm:
-                    arm = arm + Phi_i @ q
-                Q += Phi_i.T @ f_b
-            N_b += _cross(arm, f_b)
-            if d.rot_rows is not None:
-                N_b += m_b
-                if d.nf:
-                    Q += d.Phi[d.rot_rows[ld.node]].T @ m_b
-        return F_g, N_b, Q
+        nf = d.nf
+        blocks = []
+        for ld in loads.items:
+            rot = d.Phi[d.rot_rows[ld.node]] if d.rot_rows is not None else np.zeros((3, nf))
+            blocks.append(np.concatenate([[float(ld.follower), float(d.rot_rows is not None)], d.Xc[ld.node],
+                                          d.Phi[d.trans_rows[ld.node]].ravel(), rot.ravel()]))
+        LP = np.ascontiguousarray(np.concatenate(blocks) if blocks else np.zeros(0), dtype=float)
+        loads._kernel = (self, LP)
+        return LP
 
-    def _unpack_velocities(self, q, pi):
-        xi = np.linalg.solve(self._mass_matrix(q), pi)
-        return xi[:3], xi[3:6], xi[6:]
-
-    def _rhs(self, t, z, Rn, loads):
-        """Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q].
-
-        phi:   rotation vector of the body relative to frame n (R = Rn exp(skew phi)).
-        dpos:  displacement of the frame point since t_n, global.
-        p_g:   linear momentum, global components:        dp_g/dt = F.
-        H:     angular momentum about the frame point, frame-n components:
-               H = R_rel h,  dh/dt + omega x h + v x p = N  (Kirchhoff / Euler-Poincare).
-        q:     flexible modal coordinates:                 dq/dt = qdot.
-        p_q:   dT/dqdot = qdot + D(q)^T omega:             dp_q/dt = dT/dq - K q - C qdot + Phi^T f.
-        """
-        nf = self.data.nf
-        phi = z[0:3]
-        Rrel = _rodrigues(phi)
-        R = Rn @ Rrel
-        p_b = R.T @ z[6:9]
-        h = Rrel.T @ z[9:12]
-        q = z[12:12 + nf]
-        pq = z[12 + nf:]
-        v, w, qd = self._unpack_velocities(q, np.concatenate([p_b, h, pq]))
-        F_g, N_b, Q = self._loads_body(t, R, q, loads)
-        out = np.empty_like(z)
-        out[0:3] = _rotvec_rate(phi, w)
-        out[3:6] = R @ v
-        out[6:9] = F_g
-        out[9:12] = Rrel @ (N_b - _cross(v, p_b))
-        out[12:12 + nf] = qd
-        if nf:
-            out[12 + nf:] = self._dTdq(v, w, q, qd) - self._kF * q - self._cF * qd + Q
-        return out
+    def _consistent_steps(self, s: ReframeState, dt: float, n: int, loads: "_Prepared") -> ReframeState:
+        kern = _kernels()
+        LP = self._kernel_loads(loads)
+        SV, held = loads.stage_values(s.t, dt, n)
+        y0 = np.concatenate((s.position, np.ravel(s.rotation), s.eta)).astype(float, copy=False)
+        y, t, done, status = kern.consistent_steps(self._P, LP, self.data.nf, self.deformed_load_arm, SV, held,
+                                                   float(s.t), dt, n, y0)
+        if status == 1:
+            loads.check((t, t + 0.5 * dt, t + dt))         # raises the history's ParameterError
+        if status:
+            raise FlexfmuError(f"reframe: non-finite state at t = {t:.6g} s (scheme 'consistent')")
+        return ReframeState(t=t, position=y[0:3], rotation=y[3:12].reshape(3, 3), eta=y[12:])
 
     def _velocities(self, state):
         d = self.data
@@ -704,45 +721,40 @@ class ReframeIntegrator:
         vw = d.A6 @ state.eta[nm:nm + N_RIGID]
         return vw[:3], vw[3:], state.eta[N_RIGID:nm].copy(), state.eta[nm + N_RIGID:].copy()
 
-    def _consistent_step(self, s, dt, loads):
-        d = self.data
-        nf = d.nf
-        v, w, q, qd = self._velocities(s)
-        pi = self._mass_matrix(q) @ np.concatenate([v, w, qd])
-        Rn = s.rotation
-        z0 = np.concatenate([np.zeros(6), Rn @ pi[:3], pi[3:6], q, pi[6:]])
-        t = s.t
-        k1 = self._rhs(t, z0, Rn, loads)
-        k2 = self._rhs(t + 0.5 * dt, z0 + 0.5 * dt * k1, Rn, loads)
-        k3 = self._rhs(t + 0.5 * dt, z0 + 0.5 * dt * k2, Rn, loads)
-        k4 = self._rhs(t + dt, z0 + dt * k3, Rn, loads)
-        z = z0 + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        # Re-frame: the new frame is the dummy body at t_{n+1}; the rigid part goes into the pose.
-        Rrel = _rodrigues(z[0:3])
-        R = Rn @ Rrel
-        R = _orthonormalize(R)
-        q = z[12:12 + nf]
-        v, w, qd = self._unpack_velocities(q, np.concatenate([R.T @ z[6:9], Rrel.T @ z[9:12], z[12 + nf:]]))
-        eta = np.concatenate([np.zeros(N_RIGID), q, d.A6inv @ np.concatenate([v, w]), qd])
-        return ReframeState(t=t + dt, position=s.position + z[3:6], rotation=R, eta=eta)
+    def _point_data(self, points: np.ndarray) -> np.ndarray:
+        """Output points for the kernel: rows [X - c (3), translational rows of Phi (3 nf)]; cached."""
+        key = points.tobytes()
+        PP = self._points_cache.get(key)
+        if PP is None:
+            d = self.data
+            PP = np.ascontiguousarray(np.hstack([d.Xc[points], d.Phi[d.trans_rows[points]].reshape(len(points), -1)])
+                                      if len(points) else np.zeros((0, 3 + 3 * d.nf)), dtype=float)
+            if len(self._points_cache) > 16:
+                self._points_cache.clear()
+            self._points_cache[key] = PP
+        return PP
 
-    def _consistent_accelerations(self, s, loads):
-        """(a_o body, alpha body, qddot) at a state: xi_dot = Mm^{-1} (pi_dot - Mm_dot xi)."""
+    def output_vector(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> np.ndarray:
+        """All outputs of one state as one flat array (consistent scheme): frame origin (3), its velocity (3),
+        quaternion (4), omega (3), alpha (3), com position (3), com velocity (3), q (nf), qdot (nf),
+        max elastic displacement (1), then per point position, velocity, acceleration, and their rigid
+        parts (6 x 3).  :meth:`snapshot` wraps it; the ReframeBody FMU reads it directly."""
+        if self.scheme != "consistent":
+            snap = self.snapshot(state, loads, points)
+            return np.concatenate([snap.frame_origin, snap.frame_origin_velocity, snap.quaternion, snap.omega,
+                                   snap.alpha, snap.com_position, snap.com_velocity, snap.q, snap.qd,
+                                   [snap.max_elastic_displacement],
+                                   np.stack([snap.point_position, snap.point_velocity, snap.point_acceleration,
+                                             snap.point_position_rigid, snap.point_velocity_rigid,
+                                             snap.point_acceleration_rigid], axis=1).ravel()])
         d = self.data
-        v, w, q, qd = self._velocities(s)
-        Mm = self._mass_matrix(q)
-        xi = np.concatenate([v, w, qd])
-        pi = Mm @ xi
-        p_b, h = pi[:3], pi[3:6]
-        F_g, N_b, Q = self._loads_body(s.t, s.rotation, q, loads)
-        F_b = s.rotation.T @ F_g
-        pidot = np.concatenate([F_b - _cross(w, p_b), N_b - _cross(w, h) - _cross(v, p_b),
-                                self._dTdq(v, w, q, qd) - self._kF * q - self._cF * qd + Q])
-        # Mm is quadratic in q, so its time derivative along qd is an exact central difference.
-        Mdot = 0.5 * (self._mass_matrix(q + qd) - self._mass_matrix(q - qd))
-        xidot = np.linalg.solve(Mm, pidot - Mdot @ xi)
-        a_o = xidot[:3] + _cross(w, v)
-        return a_o, xidot[3:6], xidot[6:]
+        SV, held = loads.stage_values(state.t, 0.0, 1)
+        if not held and not np.all(np.isfinite(SV)):
+            loads.check((state.t,))
+        y = np.concatenate((state.position, np.ravel(state.rotation), state.eta)).astype(float, copy=False)
+        return _kernels().consistent_outputs(self._P, self._kernel_loads(loads), d.nf, self.deformed_load_arm,
+                                             SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn,
+                                             *self._umax)
 
     # ---------------------------------------------------------------- paper scheme
     def _paper_fq(self, t, A, q, loads):
@@ -885,8 +897,11 @@ class ReframeIntegrator:
         if self.scheme == "consistent":
             v, w, q, qd = self._velocities(s)
             u = d.Phi @ q
-            y = self._S0 @ w + (np.tensordot(q, self._Sj, (0, 0)) @ w if d.nf else 0.0)
-            wb = self._T @ v + y + d.Phi @ qd
+            wb = d.Phi @ qd
+            # T v + S(X - c + u) omega: v + omega x y on translational DOFs, omega on rotational DOFs
+            wb[d.trans_rows] += v + np.cross(w, d.Xc + u[d.trans_rows])
+            if d.rot_rows is not None:
+                wb[d.rot_rows] += w
         else:
             u = d.Psi @ s.eta[:nm]
             wb = d.Psi @ s.eta[nm:]
@@ -895,42 +910,32 @@ class ReframeIntegrator:
         return NodalState(positions=pos, displacement=u, velocity_body=wb, velocity=wg)
 
     def _outputs(self, s, loads, pts):
-        """omega, alpha, com velocity, and point kinematics (full, rigid) of one state."""
+        """omega, alpha, com velocity, and point kinematics (full, rigid) of one state (paper scheme; the
+        consistent scheme's are computed by the output kernel, :meth:`output_vector`).  Only the output
+        points' rows of Psi are used, so the cost does not depend on the mesh."""
         d = self.data
         nm = d.n_modes
         R = s.rotation
-        if self.scheme == "consistent":
-            v, w, q, qd = self._velocities(s)
-            a_o, alpha, qdd = self._consistent_accelerations(s, loads)
-            u_all = d.Phi @ q
-            ud_all = d.Phi @ qd
-            udd_all = d.Phi @ qdd
-            vcom = (R @ (self._m * v + (np.tensordot(q, self._Aj, (0, 0)) @ w if d.nf else 0.0))) / self._m
-        else:
-            v, w, a_o, alpha, qdd_all = self._paper_kinematics(s, loads)
-            u_all = d.Psi @ s.eta[:nm]
-            ud_all = d.Phi @ s.eta[nm + N_RIGID:]
-            udd_all = d.Phi @ qdd_all[N_RIGID:]
-            vcom = R @ v
+        v, w, a_o, alpha, qdd_all = self._paper_kinematics(s, loads)
         tr = d.trans_rows[pts]
+        Psi_p = d.Psi[tr]                                          # (n_p, 3, nm)
+        u = Psi_p @ s.eta[:nm]
+        ud = Psi_p[..., N_RIGID:] @ s.eta[nm + N_RIGID:]
+        udd = Psi_p[..., N_RIGID:] @ qdd_all[N_RIGID:]
+        vcom = R @ v
         X = d.Xc[pts]                                              # (n_p, 3) rigid arms
-        u, ud, udd = u_all[tr], ud_all[tr], udd_all[tr]
-        y = X + u
         Wt = _skew(w).T
         wx = lambda r: r @ Wt                                      # noqa: E731  (omega x r, row-wise)
         pos_r = s.position + X @ R.T
         vel_r = (v + wx(X)) @ R.T
         acc_r = (a_o + X @ _skew(alpha).T + wx(wx(X))) @ R.T
-        pos_f = s.position + y @ R.T
-        if self.scheme == "consistent":
-            vel_f = (v + wx(y) + ud) @ R.T
-            acc_f = (a_o + y @ _skew(alpha).T + wx(wx(y)) + 2.0 * wx(ud) + udd) @ R.T
-        else:
-            # paper: x, xdot are the linear model's displacement / full velocity in the frame; full
-            # acceleration = embedded rigid acceleration + elastic acceleration Phi qddot_F.
-            vel_f = (d.Psi @ s.eta[nm:])[tr] @ R.T
-            acc_f = acc_r + udd @ R.T
-        umax = float(np.max(np.linalg.norm((d.Phi @ s.eta[N_RIGID:nm])[d.trans_rows], axis=1))) if d.nf else 0.0
+        pos_f = s.position + (X + u) @ R.T
+        # paper: x, xdot are the linear model's displacement / full velocity in the frame; full
+        # acceleration = embedded rigid acceleration + elastic acceleration Phi qddot_F.
+        vel_f = (Psi_p @ s.eta[nm:]) @ R.T
+        acc_f = acc_r + udd @ R.T
+        del ud
+        umax = self._max_elastic_displacement(s.eta[N_RIGID:nm])
         v_origin = R @ (v + _cross(w, -d.com))          # d/dt of the frame origin, rigid with the dummy body
         return w, alpha, vcom, umax, v_origin, (pos_f, vel_f, acc_f, pos_r, vel_r, acc_r)
 
@@ -954,10 +959,12 @@ class ReframeIntegrator:
         if abs(n_steps * dt - (t_end - s.t)) > 1e-9 * max(1.0, t_end):
             n_steps = int(math.ceil((t_end - s.t) / dt))
         rec = [self.snapshot(s, loads, pts)]
-        for n in range(n_steps):
-            s = self.advance(s, dt, loads)
-            if (n + 1) % every == 0 or n + 1 == n_steps:
-                rec.append(self.snapshot(s, loads, pts))
+        done = 0
+        while done < n_steps:                 # records after every ``every``-th step and the last
+            k = min(every - done % every, n_steps - done)
+            s = self.advance_steps(s, dt, k, loads)
+            done += k
+            rec.append(self.snapshot(s, loads, pts))
         self.state = s
         stacked = {name: np.array([getattr(r, name) for r in rec]) for name in Snapshot.__dataclass_fields__}
         return ReframeResult(points=pts, final_state=s, **stacked)
@@ -973,6 +980,17 @@ class ReframeIntegrator:
 
     def snapshot(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> "Snapshot":
         """All outputs of one state (the loads enter the accelerations)."""
+        if self.scheme == "consistent":
+            vec = self.output_vector(state, loads, points)
+            nf = self.data.nf
+            kin = vec[23 + 2 * nf:].reshape(len(points), 6, 3)
+            return Snapshot(t=state.t, frame_origin=vec[0:3], frame_origin_velocity=vec[3:6],
+                            rotation=np.array(state.rotation), quaternion=vec[6:10], omega=vec[10:13],
+                            alpha=vec[13:16], com_position=vec[16:19], com_velocity=vec[19:22], q=vec[22:22 + nf],
+                            qd=vec[22 + nf:22 + 2 * nf], max_elastic_displacement=float(vec[22 + 2 * nf]),
+                            point_position=kin[:, 0], point_velocity=kin[:, 1], point_acceleration=kin[:, 2],
+                            point_position_rigid=kin[:, 3], point_velocity_rigid=kin[:, 4],
+                            point_acceleration_rigid=kin[:, 5])
         w, alpha, vcom, umax, v_origin, kin = self._outputs(state, loads.items, points)
         nm = self.data.n_modes
         return Snapshot(t=state.t, frame_origin=state.position - state.rotation @ self.data.com,
@@ -1010,15 +1028,66 @@ class Snapshot:
 
 
 class _Prepared:
-    """Loads resolved once (node lookup, history checks) for a whole run."""
+    """Loads resolved once (node lookup, history checks) for a whole run; gathers their values at the RK4
+    stage times into one array for the step kernel."""
 
     def __init__(self, items):
         self.items = items
+        self._held = None        # (1, 3, n_loads, 6) values when every history is constant
+        self._kernel = None      # (integrator, packed node data) for the consistent-scheme kernel
 
+    @property
+    def constant(self) -> bool:
+        return all(ld.force.constant and ld.moment.constant for ld in self.items)
 
-def _orthonormalize(R):
-    """Remove round-off drift from a rotation matrix (one Newton step of the polar decomposition)."""
-    return 1.5 * R - 0.5 * R @ R.T @ R
+    def set_held(self, index: int, force, moment=None) -> None:
+        """Make load ``index`` constant (checked like a PointLoad's constant force / moment): the input held
+        over a co-simulation step."""
+        ld = self.items[index]
+        ld.force = _History(force, "load.force")
+        if moment is not None:
+            ld.moment = _History(moment, "load.moment")
+        self._held = None
+
+    def stage_values(self, t: float, dt: float, n: int):
+        """Force and moment of every load at t_k, t_k + dt/2, t_k + dt (t_0 = t, t_{k+1} = t_k + dt) for
+        k < n: ``(values (n, 3, n_loads, 6), False)``; ``(values (1, 3, n_loads, 6), True)`` if constant."""
+        if self._held is None and self.constant:
+            self._held = self._values([(0.0, 0.0, 0.0)])
+        if self._held is not None:
+            return self._held, True
+        times = []
+        for _ in range(n):
+            times.append((t, t + 0.5 * dt, t + dt))
+            t = t + dt
+        return self._values(times), False
+
+    def _values(self, times):
+        items = self.items
+        if not items:
+            return np.zeros((len(times), 3, 0, 6))
+        raw = []
+        for stage_times in times:
+            for ts in stage_times:
+                for ld in items:
+                    raw.append(ld.force.raw(ts))
+                    raw.append(ld.moment.raw(ts))
+        try:
+            values = np.array(raw, dtype=float)
+        except (TypeError, ValueError):
+            values = None
+        if values is None or values.shape != (len(raw), 3):
+            for stage_times in times:
+                self.check(stage_times)
+            raise ParameterError("load", "load history values of inconsistent shape", "f(t) -> finite (3,)")
+        return values.reshape(len(times), 3, len(items), 6)
+
+    def check(self, stage_times) -> None:
+        """Evaluate every history at the given times with the full checks (raises ParameterError)."""
+        for ts in stage_times:
+            for ld in self.items:
+                ld.force(ts)
+                ld.moment(ts)
 
 
 # --------------------------------------------------------------------------- fixed-frame baseline

@@ -93,11 +93,15 @@ class ReframeBodySimulator:
         self._force = np.zeros(3)
         self._moment = np.zeros(3)
         rotational = integ.data.structure.dofs_per_node == 6
-        load = PointLoad((c.load_point_x, c.load_point_y, c.load_point_z), force=lambda t: self._force,
-                         moment=(lambda t: self._moment) if rotational else None, follower=c.force_follows_body)
+        # Constant histories, replaced by the held input at each set_inputs (Prepared.set_held).
+        load = PointLoad((c.load_point_x, c.load_point_y, c.load_point_z), force=self._force.copy(),
+                         moment=self._moment.copy() if rotational else None, follower=c.force_follows_body)
         self._accepts_moment = rotational
         self._loads = integ.prepare_loads(load)
         self._points = integ.point_indices([(c.output_point_x, c.output_point_y, c.output_point_z)])
+        nf = integ.data.nf
+        o = 23 + 2 * nf                 # flexfmu.reframe.ReframeIntegrator.output_vector layout, one point
+        self._columns = np.r_[0:22, o:o + 9, o + 15:o + 18, 22 + 2 * nf]
         self.state = integ.initial_state(v0=(c.v0_x, c.v0_y, c.v0_z), omega0=(c.omega0_1, c.omega0_2, c.omega0_3))
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
 
@@ -117,21 +121,38 @@ class ReframeBodySimulator:
                 require(self._accepts_moment, name, "moments need a model with rotational DOFs (beam:<scene>)",
                         "0 for models with 3 DOFs per node")
         self.inputs.update({k: float(v) for k, v in inputs.items()})
-        self._force = np.array([self.inputs[f"F_{a}"] for a in AXES])
-        self._moment = np.array([self.inputs[f"M_{a}"] for a in AXES])
+        self._hold(np.array([self.inputs[f"F_{a}"] for a in AXES]), np.array([self.inputs[f"M_{a}"] for a in AXES]))
+
+    def _hold(self, force, moment) -> None:
+        if not (np.array_equal(force, self._force) and np.array_equal(moment, self._moment)):
+            self._force, self._moment = force, moment
+            self._loads.set_held(0, force, moment if self._accepts_moment else None)
+
+    def set_input_vector(self, values) -> None:
+        """All inputs at once, in INPUT_NAMES order (the FMU's per-step path)."""
+        vals = [float(v) for v in values]
+        if len(vals) != len(INPUT_NAMES) or not all(map(math.isfinite, vals)) or \
+                (not self._accepts_moment and any(vals[3:6])):
+            self.set_inputs(**dict(zip(INPUT_NAMES, vals)))
+            return
+        self.inputs = dict(zip(INPUT_NAMES, vals))
+        self._hold(np.array(vals[0:3]), np.array(vals[3:6]))
 
     def step(self, step_size: float) -> None:
+        """Equal internal RK4 steps over step_size (s) with the inputs held, in one kernel call."""
         require(math.isfinite(step_size) and step_size > 0, "step_size", f"got {step_size!r}", "> 0 s")
         n = self.internal_steps(step_size)
-        dt = step_size / n
-        s = self.state
-        for _ in range(n):
-            s = self.integrator.advance(s, dt, self._loads)
-        self.state = s
+        self.state = self.integrator.advance_steps(self.state, step_size / n, n, self._loads)
+
+    def output_vector(self) -> np.ndarray:
+        """All outputs (OUTPUT_NAMES order) of the current state."""
+        integ = self.integrator
+        if integ.scheme == "consistent":
+            return integ.output_vector(self.state, self._loads, self._points)[self._columns]
+        return output_values(integ.snapshot(self.state, self._loads, self._points))
 
     def outputs(self) -> dict[str, float]:
-        snap = self.integrator.snapshot(self.state, self._loads, self._points)
-        return dict(zip(OUTPUT_NAMES, output_values(snap).tolist()))
+        return dict(zip(OUTPUT_NAMES, self.output_vector().tolist()))
 
     # ---- state for FMI get/set/serialize: plain JSON-able data
     def get_state(self) -> dict:

@@ -1,0 +1,276 @@
+"""The fast paths compute the same numbers as the definitions (issue 6; speed is measured in benchmarks/,
+never asserted here):
+
+* the consistent reframe step in modal space (invariants + step kernel) against the same scheme written
+  in physical space (nodal vectors, the full M), and the paper scheme's modal frame transformation
+  sum R_ab Psi^T M E_ab Psi against rotating every nodal triplet and expanding back;
+* the compiled (numba) kernels against their numpy versions, in process and with FLEXFMU_NUMBA=0;
+* the exact max elastic displacement search against all nodes;
+* FFRBeam's cached affine step / output maps against the term-by-term formulas.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from flexfmu import _reframe_kernels as K
+from flexfmu.modal_basis import N_RIGID, modal_basis
+from flexfmu.models import load_model
+from flexfmu.plate import LOAD_POINT, paper_plate
+from flexfmu.reframe import PointLoad, ReframeIntegrator, ReframeState, half_sine_pulse
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def plate():
+    return paper_plate((20, 2, 1))
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return load_model("beam:spatial_double_L", elements_per_segment=4)
+
+
+# --------------------------------------------------------------------------- physical-space reference
+def _rodrigues(phi):
+    th = float(np.linalg.norm(phi))
+    Kx = np.array([[0, -phi[2], phi[1]], [phi[2], 0, -phi[0]], [-phi[1], phi[0], 0]])
+    if th < 1e-12:
+        return np.eye(3) + Kx
+    return np.eye(3) + math.sin(th) / th * Kx + (1 - math.cos(th)) / th**2 * Kx @ Kx
+
+
+def _rotvec_rate(phi, w):
+    th = float(np.linalg.norm(phi))
+    pxw = np.cross(phi, w)
+    c = 1 / 12 + th**2 / 720 if th < 1e-3 else (1 - 0.5 * th / math.tan(0.5 * th)) / th**2
+    return w + 0.5 * pxw + c * np.cross(phi, pxw)
+
+
+class PhysicalStep:
+    """The consistent scheme (docs/reframe.md) evaluated with nodal vectors and the full mass matrix:
+    the generalised mass matrix B^T M B with B = [T | S(X - c + Phi q) | Phi], dT/dq_j = (omega x phi_j)^T M w."""
+
+    def __init__(self, integ: ReframeIntegrator):
+        d = integ.data
+        self.d, self.deformed = d, integ.deformed_load_arm
+        self.M = d.M.toarray() if d.n_dof <= 4000 else d.M
+        nd = d.n_dof
+        self.T = np.zeros((nd, 3))
+        for k in range(3):
+            self.T[d.trans_rows[:, k], k] = 1.0
+
+    def B(self, q):
+        d = self.d
+        y = d.Xc + (d.Phi @ q)[d.trans_rows]
+        S = np.zeros((d.n_dof, 3))
+        for k in range(3):
+            S[d.trans_rows, k] = np.cross(np.eye(3)[k], y)
+            if d.rot_rows is not None:
+                S[d.rot_rows[:, k], k] = 1.0
+        return np.hstack([self.T, S, d.Phi])
+
+    def rhs(self, t, z, Rn, loads):
+        d = self.d
+        nf = d.nf
+        phi = z[0:3]
+        Rrel = _rodrigues(phi)
+        R = Rn @ Rrel
+        q, pq = z[12:12 + nf], z[12 + nf:]
+        B = self.B(q)
+        Mm = B.T @ (self.M @ B)
+        xi = np.linalg.solve(Mm, np.concatenate([R.T @ z[6:9], Rrel.T @ z[9:12], pq]))
+        v, w, qd = xi[:3], xi[3:6], xi[6:]
+        Mw = self.M @ (B @ xi)
+        U = d.Phi[d.trans_rows]                                     # (N, 3, nf)
+        dTdq = np.einsum("nc,ncj->j", Mw[d.trans_rows], np.cross(w[None, :, None], U, axis=1))
+        F_g, N_b, Q = np.zeros(3), np.zeros(3), np.zeros(nf)
+        for ld in loads.items:
+            f, m = ld.force(t), ld.moment(t)
+            f_b, m_b = (f, m) if ld.follower else (R.T @ f, R.T @ m)
+            F_g += R @ f_b
+            rows = d.trans_rows[ld.node]
+            arm = d.Xc[ld.node] + (d.Phi[rows] @ q if self.deformed else 0.0)
+            N_b += np.cross(arm, f_b)
+            Q += d.Phi[rows].T @ f_b
+            if d.rot_rows is not None:
+                N_b += m_b
+                Q += d.Phi[d.rot_rows[ld.node]].T @ m_b
+        p_b = R.T @ z[6:9]
+        return np.concatenate([_rotvec_rate(phi, w), R @ v, F_g, Rrel @ (N_b - np.cross(v, p_b)), qd,
+                               dTdq - d.kq[N_RIGID:] * q - d.cq[N_RIGID:] * qd + Q])
+
+    def step(self, s, dt, loads):
+        d = self.d
+        nm, nf = d.n_modes, d.nf
+        vw = d.A6 @ s.eta[nm:nm + N_RIGID]
+        q, qd = s.eta[N_RIGID:nm], s.eta[nm + N_RIGID:]
+        B = self.B(q)
+        pi = B.T @ (self.M @ (B @ np.concatenate([vw, qd])))
+        Rn = s.rotation
+        z0 = np.concatenate([np.zeros(6), Rn @ pi[:3], pi[3:6], q, pi[6:]])
+        k1 = self.rhs(s.t, z0, Rn, loads)
+        k2 = self.rhs(s.t + 0.5 * dt, z0 + 0.5 * dt * k1, Rn, loads)
+        k3 = self.rhs(s.t + 0.5 * dt, z0 + 0.5 * dt * k2, Rn, loads)
+        k4 = self.rhs(s.t + dt, z0 + dt * k3, Rn, loads)
+        z = z0 + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        Rrel = _rodrigues(z[0:3])
+        R = Rn @ Rrel
+        R = 1.5 * R - 0.5 * R @ R.T @ R
+        q1 = z[12:12 + nf]
+        B = self.B(q1)
+        xi = np.linalg.solve(B.T @ (self.M @ B), np.concatenate([R.T @ z[6:9], Rrel.T @ z[9:12], z[12 + nf:]]))
+        eta = np.concatenate([np.zeros(N_RIGID), q1, d.A6inv @ xi[:6], xi[6:]])
+        return ReframeState(t=s.t + dt, position=s.position + z[3:6], rotation=R, eta=eta)
+
+
+def _rel(a, b):
+    return float(np.max(np.abs(np.asarray(a) - np.asarray(b))) / max(np.max(np.abs(np.asarray(b))), 1e-300))
+
+
+@pytest.mark.parametrize("model", ["plate", "beam"])
+def test_modal_step_equals_physical_space_step(model, plate, beam):
+    structure, n, dt = (plate, 4, 2e-4) if model == "plate" else (beam, 3, 5e-5)
+    integ = ReframeIntegrator(structure, modal_basis(structure, n))
+    rng = np.random.default_rng(6)
+    s = integ.initial_state(v0=(0.3, -0.2, 0.1), omega0=(5.0, 2.0, 8.0), q0=1e-5 * rng.standard_normal(n),
+                            qd0=1e-3 * rng.standard_normal(n))
+    node = structure.meta["points"]["load"] if model == "plate" else structure.nodes.shape[0] - 1
+    loads = [PointLoad(node, half_sine_pulse([30.0, 10.0, 30.0], 0.002)),
+             PointLoad(0, [0.0, 5.0, -3.0], follower=True,
+                       moment=(lambda t: np.array([0.1, 0.0, 0.2 * t])) if model == "beam" else None)]
+    prepared = integ.prepare_loads(loads)
+    ref = PhysicalStep(integ)
+    s_mod = s_phy = s
+    for _ in range(10):
+        s_mod = integ.advance(s_mod, dt, prepared)
+        s_phy = ref.step(s_phy, dt, prepared)
+    errs = [_rel(s_mod.eta, s_phy.eta), _rel(s_mod.rotation, s_phy.rotation),
+            _rel(s_mod.position - s.position, s_phy.position - s.position)]
+    print(f"\n{model}: modal vs physical-space step, 10 steps: eta {errs[0]:.1e}, R {errs[1]:.1e}, "
+          f"position {errs[2]:.1e}")
+    assert max(errs) < 1e-12
+    # batched steps are the same steps
+    s_batch = integ.advance_steps(s, dt, 10, prepared)
+    assert _rel(s_batch.eta, s_mod.eta) < 1e-14 and s_batch.t == s_mod.t
+    # output point velocity (modal output kernel) = the node's velocity from the nodal state (physical)
+    snap = integ.snapshot(s_mod, prepared, np.array([node]))
+    nodal = integ.nodal_state(s_mod)
+    assert _rel(snap.point_velocity[0], nodal.velocity[integ.data.trans_rows[node]]) < 1e-12
+    assert _rel(snap.point_position[0], nodal.positions[node]) < 1e-12
+
+
+def test_paper_transformation_modal_equals_physical(plate):
+    integ = ReframeIntegrator(plate, modal_basis(plate, 4), scheme="paper")
+    d = integ.data
+    nm = d.n_modes
+    rng = np.random.default_rng(7)
+    eta, incr = rng.standard_normal(2 * nm), 1e-2 * rng.standard_normal(2 * nm)
+    R = _rodrigues(np.array([0.3, -0.2, 0.5]))
+    modal = integ._paper_transform(eta, incr, R)
+    qt = eta[:nm] + incr[:nm]
+    qt[:N_RIGID] = eta[:N_RIGID]
+    qdt = eta[nm:] + incr[nm:]
+    phys = []
+    for x in (d.Psi @ qt, d.Psi @ qdt):
+        xr = (x.reshape(-1, 3) @ R.T).ravel()           # every translational triplet rotated (3-DOF nodes)
+        phys.append(d.Psi.T @ (d.M @ xr))               # inverse modal expansion (Eqs. 30-31, M_q = I)
+    assert _rel(modal, np.concatenate(phys)) < 1e-12
+
+
+def test_max_elastic_displacement_search_is_exact(plate):
+    integ = ReframeIntegrator(plate, modal_basis(plate, 10))
+    rng = np.random.default_rng(8)
+    for q in [rng.standard_normal(10), np.eye(10)[0], np.eye(10)[9], np.full(10, 1e-4), np.zeros(10)]:
+        all_nodes = float(np.max(np.linalg.norm((integ.data.Phi @ q)[integ.data.trans_rows], axis=1)))
+        assert abs(integ._max_elastic_displacement(q) - all_nodes) <= 1e-14 * max(all_nodes, 1e-300)
+
+
+# --------------------------------------------------------------------------- numba kernels vs numpy
+def _kernel_case(beam):
+    integ = ReframeIntegrator(beam, modal_basis(beam, 3))
+    s = integ.initial_state(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
+    loads = integ.prepare_loads(PointLoad(beam.nodes.shape[0] - 1, half_sine_pulse([1.0, 0.0, 1.0], 0.005),
+                                          moment=[0.0, 0.01, 0.0]))
+    return integ, s, loads
+
+
+@pytest.mark.skipif(not K.NUMBA, reason="numba not installed: the numpy versions are the only ones")
+def test_numba_kernels_equal_numpy_versions(beam):
+    integ, s, loads = _kernel_case(beam)
+    dt, n = 5e-5, 200
+    SV, held = loads.stage_values(s.t, dt, n)
+    y0 = np.concatenate((s.position, s.rotation.ravel(), s.eta))
+    args = (integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV, held, 0.0, dt, n, y0)
+    y_nb, t_nb, k_nb, st_nb = K.consistent_steps(*args)
+    y_np, t_np, k_np, st_np = K.consistent_steps_numpy(*args)
+    assert (k_nb, st_nb, t_nb) == (k_np, st_np, t_np) == (n, 0, t_nb)
+    assert _rel(y_nb, y_np) < 1e-12
+    pts = np.array([0, 7], dtype=np.int64)
+    out_args = (integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV[-1, 2], y_nb, integ._point_data(pts),
+                integ._Psi_c, integ.data.dpn, *integ._umax)
+    assert _rel(K.consistent_outputs(*out_args), K.consistent_outputs_numpy(*out_args)) < 1e-12
+
+
+_FALLBACK_SCRIPT = """
+import json, numpy as np
+from flexfmu import _reframe_kernels as K
+from flexfmu.models import load_model
+from flexfmu.modal_basis import modal_basis
+from flexfmu.reframe import ReframeIntegrator, PointLoad, half_sine_pulse
+beam = load_model("beam:spatial_double_L", elements_per_segment=4)
+integ = ReframeIntegrator(beam, modal_basis(beam, 3))
+integ.set_initial(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
+load = PointLoad(beam.nodes.shape[0] - 1, half_sine_pulse([1.0, 0.0, 1.0], 0.005), moment=[0.0, 0.01, 0.0])
+r = integ.run(0.01, 5e-5, load, points=[0, 7], every=50)
+print(json.dumps({"numba": K.NUMBA, "eta": integ.state.eta.tolist(), "R": integ.state.rotation.tolist(),
+                  "acc": r.point_acceleration.tolist(), "umax": r.max_elastic_displacement.tolist()}))
+"""
+
+
+def test_numpy_fallback_gives_the_same_numbers():
+    """FLEXFMU_NUMBA=0 (as without numba installed) runs the numpy versions: same results."""
+    runs = {}
+    for flag in ("0", "1"):
+        env = dict(os.environ, FLEXFMU_NUMBA=flag)
+        out = subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT], env=env, capture_output=True, text=True,
+                             check=True, cwd=ROOT)
+        runs[flag] = json.loads(out.stdout.strip().splitlines()[-1])
+    assert runs["0"]["numba"] is False
+    for key in ("eta", "R", "acc", "umax"):
+        assert _rel(runs["0"][key], runs["1"][key]) < 1e-12, key
+
+
+# --------------------------------------------------------------------------- FFRBeam maps
+def test_ffrbeam_fast_maps_equal_term_by_term_formulas():
+    from flexfmu.ffr_beam_sim import INPUT_NAMES, FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.ffr_dynamics import BaseMotion
+
+    sim = FFRBeamSimulator(FFRBeamConfig(n_modes=6))
+    rng = np.random.default_rng(9)
+    scale = np.array([1, 1, 1, 0.1, 0.1, 0.1, 2, 2, 2, 3, 3, 3, 5, 5, 5], float)
+    for case in range(4):
+        u = rng.standard_normal(len(INPUT_NAMES)) * scale
+        if case == 0:
+            u[9:] = 0.0
+        sim.set_input_vector(u)
+        before = sim.state.copy()
+        sim.step(1e-3)
+        base = BaseMotion(a0=u[6:9], omega=u[9:12], alpha=u[12:15])
+        ref_state = sim.dynamics.step(before, 1e-3, u[0:3], u[3:6], base)
+        assert _rel(np.concatenate([sim.state.eta, sim.state.eta_dot]),
+                    np.concatenate([ref_state.eta, ref_state.eta_dot])) < 1e-12
+        fast, ref = sim.outputs(), sim.reference_outputs()
+        for group in ("sensor_u", "sensor_v", "sensor_a", "tip_u", "reaction_F", "reaction_M"):
+            a = [fast[f"{group}_{x}"] for x in "xyz"]
+            b = [ref[f"{group}_{x}"] for x in "xyz"]
+            assert _rel(a, b) < 1e-12, group
+        assert abs(fast["elastic_energy"] - ref["elastic_energy"]) <= 1e-12 * ref["elastic_energy"]
