@@ -35,11 +35,21 @@ UNITS = {
 def _fmus():
     """(model name, slave script, variable info, default experiment) of each FMU."""
     sys.path.insert(0, str(ROOT / "model"))
-    from flexfmu import ffr_beam_sim, reframe_body_sim
+    from flexfmu import (ffr_beam_sim, hydrostatics_sim, platform_sim, pto_sim, reframe_body_sim,
+                         wave_excitation_sim)
     return [("FFRBeam", FMU_SOURCES / "FFRBeam.py", ffr_beam_sim.VARIABLE_INFO,
              {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"}),
             ("ReframeBody", FMU_SOURCES / "ReframeBody.py", reframe_body_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "1", "stepSize": "1e-3"})]
+             {"startTime": "0", "stopTime": "1", "stepSize": "1e-3"}),
+            # The wave-energy-converter components (docs/wave_converter.md).
+            ("WaveExcitation", FMU_SOURCES / "WaveExcitation.py", wave_excitation_sim.VARIABLE_INFO,
+             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
+            ("Hydrostatics", FMU_SOURCES / "Hydrostatics.py", hydrostatics_sim.VARIABLE_INFO,
+             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
+            ("Platform", FMU_SOURCES / "Platform.py", platform_sim.VARIABLE_INFO,
+             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
+            ("PTO", FMU_SOURCES / "PTO.py", pto_sim.VARIABLE_INFO,
+             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"})]
 
 
 def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> bytes:

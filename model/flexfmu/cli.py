@@ -4,6 +4,8 @@
     flexfmu build [--out dist]
     flexfmu reframe MODEL [--scheme paper|consistent] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
+    flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|library]
+                    [--scheme gauss-seidel|jacobi] [--fmu-dir DIR] [--plot PNG]
     flexfmu main            the modal report of the paper's specimen (python3 tasks.py main does more)
 
 Bad input exits with status 2 and a one-line message naming the parameter.
@@ -44,6 +46,18 @@ def _modal(args: argparse.Namespace) -> int:
     else:
         print(format_table(scene.name, result))
     return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    """Run the source checkout's benchmarks/performance.py."""
+    root = Path(__file__).resolve().parents[2]
+    if not (root / "benchmarks" / "performance.py").is_file():
+        print("flexfmu: error: bench: needs a source checkout (benchmarks/performance.py)", file=sys.stderr)
+        return 2
+    sys.path.insert(0, str(root))
+    from benchmarks.performance import main as bench_main
+
+    return bench_main((["--quick"] if args.quick else []) + (["--out", args.out] if args.out else []))
 
 
 def _main_job(args: argparse.Namespace) -> int:
@@ -179,6 +193,57 @@ def _reframe(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cosim(args: argparse.Namespace) -> int:
+    """Run a system of FMUs from an OspSystemStructure.xml with one of the masters."""
+    from flexfmu import cosim, wec
+
+    system = cosim.load_system(args.system_file, fmu_dir=args.fmu_dir)
+    h = system.base_step if args.step is None else args.step
+    scheme = args.scheme or ("jacobi" if args.master == "libcosim" else "gauss-seidel")
+    if args.master == "libcosim" and scheme != "jacobi":
+        raise ParameterError("scheme", f"{scheme} with --master libcosim", "jacobi (libcosim's fixed-step algorithm)")
+    if args.every < 1:
+        raise ParameterError("every", f"{args.every}", "integer >= 1")
+    if not (math.isfinite(h) and h > 0):
+        raise ParameterError("step", f"{h!r}", "finite step > 0 (s)")
+    if not args.no_stability_check:
+        try:
+            check = cosim.stability_check(system, h, scheme)
+        except FlexfmuError as exc:
+            print(f"flexfmu cosim: note: no coupling-stability check ({exc})", file=sys.stderr)
+        else:
+            if not check["stable"]:
+                print(f"flexfmu cosim: warning: step {h:g} s is outside the coupling-stability limit of this system "
+                      f"({scheme}): the linearised coupled step is unstable at {check['first_unstable']:.3g} s "
+                      f"(spectral radius at {h:g} s: {check['spectral_radius']:.6f}); expect growing oscillation "
+                      "or divergence - use a smaller --step (docs/wave_converter.md)", file=sys.stderr, flush=True)
+    if args.master == "libcosim":
+        result = cosim.run_libcosim(system, args.t_end, h, progress=True)
+    else:
+        backend = "library" if args.master == "library" else "fmu"
+        result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True)
+    print(f"{system.path}: {len(system.simulators)} simulators, {len(system.connections)} connections; "
+          f"master {result.master}, step {h:g} s, t = {result.t[0]:g} .. {result.t[-1]:g} s")
+    if wec.is_wec(system):
+        print(wec.summary(result, system))
+        balance = wec.energy_balance(result, system)
+        print("energy balance over the run:")
+        print(balance.table())
+    if args.out is not None:
+        if args.every > 1:
+            keep = slice(None, None, args.every)
+            result = cosim.CosimResult(result.t[keep], {k: v[keep] for k, v in result.columns.items()},
+                                       result.step, result.scheme, result.master)
+        result.write_csv(args.out)
+        print(f"wrote {args.out} ({result.t.size} rows x {len(result.columns) + 1} columns)")
+    if args.plot is not None:
+        if not wec.is_wec(system):
+            raise ParameterError("plot", "the system is not the wave-energy converter", "a system with WaveExcitation, "
+                                 "Platform, Hydrostatics, FFRBeam and PTO")
+        print(f"wrote {wec.plot_result(result, system, args.plot)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -221,6 +286,40 @@ def build_parser() -> argparse.ArgumentParser:
                          help="write the time history as CSV (columns named like the ReframeBody FMU outputs); "
                               "default: print a summary")
     reframe.set_defaults(func=_reframe)
+
+    cosim_p = sub.add_parser(
+        "cosim", help="co-simulate a system of FMUs described by an OspSystemStructure.xml",
+        description="Co-simulate a system of FMUs (OSP system structure file) with a fixed communication step: "
+                    "our fmpy master (Gauss-Seidel or Jacobi), libcosim (Jacobi), or the flexfmu library models the "
+                    "FMUs wrap. Warns when the step is outside the system's coupling-stability limit. For the "
+                    "wave-energy converter (examples/wave_converter/) also prints motion, harvested power and the "
+                    "energy balance.")
+    cosim_p.add_argument("system_file", metavar="SYSTEM_FILE", type=Path, help="OspSystemStructure.xml")
+    cosim_p.add_argument("--t-end", type=float, required=True, metavar="T", help="end time, s")
+    cosim_p.add_argument("--step", type=float, default=None, metavar="H",
+                         help="communication step, s (default: the file's BaseStepSize)")
+    cosim_p.add_argument("--out", type=Path, default=None, metavar="CSV",
+                         help="write every output of every simulator as CSV (columns instance.variable)")
+    cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point")
+    cosim_p.add_argument("--master", choices=("fmpy", "libcosim", "library"), default="fmpy",
+                         help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; library: the "
+                              "flexfmu models the FMUs wrap, without FMI")
+    cosim_p.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default=None,
+                         help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim: jacobi)")
+    cosim_p.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
+                         help="take the FMUs from DIR instead of the file's sources (same file names)")
+    cosim_p.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                         help="wave-energy converter: draw motion and harvested power")
+    cosim_p.add_argument("--no-stability-check", action="store_true",
+                         help="skip the coupling-stability check (a few seconds for the wave-energy converter)")
+    cosim_p.set_defaults(func=_cosim)
+
+    bench = sub.add_parser("bench", help="performance figures (benchmarks/performance.py; source checkout)",
+                           description="Print the performance table (figure, ours, peer or limit, ratio) and write "
+                                       "docs/performance.md.")
+    bench.add_argument("--quick", action="store_true", help="short records, no 51k-DOF plate, no Exudyn")
+    bench.add_argument("--out", default=None, help="report file (default docs/performance.md); '-' prints only")
+    bench.set_defaults(func=_bench)
 
     main_job = sub.add_parser("main", help="the main job: the paper's spatial double pendulum, all boundaries")
     main_job.set_defaults(func=_main_job)

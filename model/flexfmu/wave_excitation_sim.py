@@ -1,0 +1,118 @@
+"""WaveExcitation: the Froude-Krylov force and moment of a regular Airy wave or a JONSWAP sea on a
+floating box (what WaveExcitation.fmu wraps; the variable names are the FMU's).
+
+No inputs: the load is a function of time, evaluated at each communication point.  The start is
+ramped (``ramp_time``) so that the load and its rate start from zero.  See flexfmu.wave.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from flexfmu.errors import require
+from flexfmu.sim_util import check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.wave import RHO_SEA, G, FloatingBox, froude_krylov_transfer, jonswap_sea, ramp, regular_wave
+
+SEA_STATES = ("regular", "jonswap")
+INPUT_NAMES: tuple = ()
+OUTPUT_NAMES = ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z", "eta")
+
+
+@dataclass(frozen=True)
+class WaveExcitationConfig:
+    """Parameters, named and defaulted as in the FMU."""
+
+    sea_state: str = "regular"
+    wave_height: float = 0.05       # H (regular) or Hs (jonswap), m
+    wave_period: float = 1.4        # T (regular) or Tp (jonswap), s
+    gamma: float = 3.3
+    n_components: int = 64
+    seed: int = 1
+    heading: float = 0.0            # deg, direction of travel from x
+    depth: float = 0.0              # m; <= 0: deep water
+    ramp_time: float = 3.0          # s
+    length: float = 1.0
+    beam: float = 0.6
+    draft: float = 0.25
+    rho: float = RHO_SEA
+    g: float = G
+
+
+@lru_cache(maxsize=16)
+def _build(cfg: WaveExcitationConfig):
+    check_config(cfg)
+    require(cfg.sea_state in SEA_STATES, "sea_state", f"got {cfg.sea_state!r}", " | ".join(SEA_STATES))
+    require(cfg.ramp_time >= 0, "ramp_time", f"got {cfg.ramp_time!r}", ">= 0 s")
+    box = FloatingBox(cfg.length, cfg.beam, cfg.draft, rho=cfg.rho, g=cfg.g)
+    for name in ("length", "beam", "draft", "rho", "g"):
+        require(getattr(cfg, name) > 0, name, f"got {getattr(cfg, name)!r}", "> 0")
+    heading = math.radians(cfg.heading)
+    if cfg.sea_state == "regular":
+        waves = regular_wave(cfg.wave_height, cfg.wave_period, heading, cfg.depth, cfg.g)
+    else:
+        waves = jonswap_sea(cfg.wave_height, cfg.wave_period, cfg.gamma, cfg.n_components, cfg.seed, heading,
+                            cfg.depth, cfg.g)
+    X = froude_krylov_transfer(box, waves) * waves.amplitude        # per component, (6, n)
+    return waves, X
+
+
+class WaveExcitationSimulator:
+    """Time and outputs of one WaveExcitation instance."""
+
+    def __init__(self, config: WaveExcitationConfig = WaveExcitationConfig()):
+        self.config = config
+        self.waves, self._X = _build(config)
+        self.t = 0.0
+
+    @property
+    def time(self) -> float:
+        return self.t
+
+    def set_inputs(self, **inputs: float) -> None:
+        check_inputs(inputs, INPUT_NAMES)
+
+    def step(self, step_size: float) -> None:
+        check_step(step_size)
+        self.t += step_size
+
+    def load(self, t: float) -> np.ndarray:
+        """Force and moment about O (global), (6,), at time t."""
+        waves = self.waves
+        phasor = np.exp(1j * (waves.phase - waves.omega * t))
+        return ramp(t, self.config.ramp_time) * (self._X @ phasor).real
+
+    def outputs(self) -> dict[str, float]:
+        eta = ramp(self.t, self.config.ramp_time) * self.waves.elevation(self.t)
+        return dict(zip(OUTPUT_NAMES, self.load(self.t).tolist() + [eta]))
+
+    def get_state(self) -> dict:
+        return {"t": self.t, "config": asdict(self.config)}
+
+    def set_state(self, data: dict) -> None:
+        check_state_config(data, self.config)
+        self.t = float(data["t"])
+
+
+#: name -> (unit, description) of every FMU variable.
+VARIABLE_INFO: dict[str, tuple[str, str]] = {
+    "sea_state": ("", "regular (one Airy wave) or jonswap (a long-crested JONSWAP sea)"),
+    "wave_height": ("m", "wave height H (regular) or significant height Hs (jonswap), >= 0"),
+    "wave_period": ("s", "wave period T (regular) or peak period Tp (jonswap), > 0"),
+    "gamma": ("", "JONSWAP peak enhancement factor, >= 1"),
+    "n_components": ("", "JONSWAP components over 0.5 .. 3 wp, 1 .. 2000"),
+    "seed": ("", "JONSWAP random-phase seed"),
+    "heading": ("", "direction of wave travel from the x axis, deg"),
+    "depth": ("m", "water depth; <= 0 = deep water"),
+    "ramp_time": ("s", "the load is ramped up as 0.5 (1 - cos(pi t / ramp_time)), >= 0"),
+    "length": ("m", "box length (x), > 0"),
+    "beam": ("m", "box beam (y), > 0"),
+    "draft": ("m", "box draft, > 0"),
+    "rho": ("", "water density, kg/m3, > 0"),
+    "g": ("m/s2", "gravity, > 0"),
+    **vector_info("F", "N", "Froude-Krylov force on the box", "global"),
+    **vector_info("M", "N.m", "Froude-Krylov moment about the waterplane centre", "global"),
+    "eta": ("m", "undisturbed surface elevation at the waterplane centre"),
+}
