@@ -38,7 +38,7 @@ def _eigenvalues_to_hz(lam: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
 
 
-def _dense_low_modes(K: np.ndarray, M: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+def dense_low_modes(K: np.ndarray, M: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs via the inverted problem M phi = mu (K + s M) phi, lambda = 1/mu - s.
 
     eigh(K, M) reduces with the Cholesky factor of M and loses about eps * lambda_max / lambda_1
@@ -74,7 +74,7 @@ def solve_modes(K, M, n_modes: int, method: str = "auto") -> Modes:
     D = sp.diags(d)
     Ks, Ms = (D @ sp.csr_matrix(K) @ D), (D @ sp.csr_matrix(M) @ D)
     if method == "dense":
-        lam, phi = _dense_low_modes(Ks.toarray(), Ms.toarray(), n_modes)
+        lam, phi = dense_low_modes(Ks.toarray(), Ms.toarray(), n_modes)
     else:
         # Shift as in the dense path: 1e-3 of the highest requested eigenvalue, estimated by a first
         # pass at sigma = -1 (tiny in these scaled units).  A shift far below the wanted eigenvalues

@@ -26,6 +26,7 @@ import scipy.sparse.linalg as spla
 
 from flexfmu.errors import ParameterError
 from flexfmu.io import validate_structure
+from flexfmu.modal import dense_low_modes
 from flexfmu.structure import Structure
 
 N_RIGID = 6
@@ -224,8 +225,9 @@ def _project_out(Phi: np.ndarray, M, V: np.ndarray) -> np.ndarray:
 def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: float) -> np.ndarray:
     """(n_dof, n) approximate lowest flexible eigenvectors of K phi = lambda M phi.
 
-    dense:  scipy.linalg.eigh on the full matrices; the six lowest (rigid) eigenvectors are
-            dropped by rigid content.
+    dense:  flexfmu.modal.dense_low_modes on the full matrices (the inverted problem: eigh(K, M)
+            loses ~1e-9 in the low modes through the Cholesky factor of M); the six lowest (rigid)
+            eigenvectors are dropped by rigid content.
     sparse: eigsh in shift-invert mode, (K - sigma M)^{-1} factorised once by SuperLU, with the
             rigid-body subspace deflated: right-hand sides are stripped of their rigid part
             before the solve and results M-projected onto the flexible subspace after it.
@@ -235,11 +237,18 @@ def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: floa
     """
     n_dof = M.shape[0]
     if method == "dense":
-        try:
-            _, V = sla.eigh(K.toarray(), M.toarray(), subset_by_index=[0, N_RIGID + n - 1])
+        Md = M.toarray()
+        try:   # the inverted problem keeps the low modes accurate (flexfmu.modal.dense_low_modes)
+            _, V = dense_low_modes(K.toarray(), Md, N_RIGID + n)
         except np.linalg.LinAlgError as exc:
-            raise ParameterError("structure.M", f"not positive definite ({exc})",
-                                 "symmetric positive definite mass matrix for the dense eigensolver") from None
+            try:
+                sla.cholesky(Md)
+            except np.linalg.LinAlgError:
+                raise ParameterError("structure.M", f"not positive definite ({exc})",
+                                     "symmetric positive definite mass matrix for the dense eigensolver") from None
+            raise ParameterError("structure.K", f"K + s M is not positive definite ({exc}): K is indefinite or "
+                                 "the structure has more than six zero-energy modes (falls apart)",
+                                 "symmetric positive semi-definite K of a connected free structure") from None
         rigid_content = np.sum((Phi.T @ (M @ V)) ** 2, axis=0)
         return V[:, np.sort(np.argsort(rigid_content)[:n])]
 
