@@ -30,7 +30,9 @@ def hammer_run(fmu: Path, boundary: str, duration: float, damping_ratio: float =
     dt = 1.0 / SAMPLE_RATE
     t = np.arange(0.0, duration + dt / 2, dt)
     pulse = np.where(t < 1e-3, 20.0 * np.sin(np.pi * t / 1e-3), 0.0)   # N, 1 ms half-sine
-    signals = np.zeros(len(t), dtype=[("time", float), ("F_x", float), ("F_y", float), ("F_z", float)])
+    from flexfmu.ffr_beam_sim import INPUT_NAMES
+
+    signals = np.zeros(len(t), dtype=[("time", float)] + [(name, float) for name in INPUT_NAMES])   # all inputs
     signals["time"] = t
     signals["F_x"], signals["F_y"], signals["F_z"] = pulse, 0.7 * pulse, 0.4 * pulse
     res = simulate_fmu(str(fmu), start_time=0.0, stop_time=duration, step_size=dt, output_interval=dt,

@@ -25,7 +25,9 @@ PULSE = 0.01                                               # s, half-sine durati
 def run(fmu: Path, scheme: str, t_end: float, step: float):
     t = np.arange(0.0, t_end + step / 2, step)
     shape = np.where(t < PULSE, np.sin(np.pi * t / PULSE), 0.0)
-    signals = np.zeros(len(t), dtype=[("time", float), ("F_x", float), ("F_y", float), ("F_z", float)])
+    from flexfmu.reframe_body_sim import INPUT_NAMES
+
+    signals = np.zeros(len(t), dtype=[("time", float)] + [(name, float) for name in INPUT_NAMES])   # all inputs
     signals["time"] = t
     signals["F_x"], signals["F_z"] = FORCE[0] * shape, FORCE[2] * shape
     outputs = ["omega_1", "omega_2", "omega_3", "out_acc_z", "out_acc_rigid_z", "max_elastic_displacement",
