@@ -193,7 +193,8 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **_info(OUTPUT_NAMES[6:10], "", "orientation quaternion body -> global, scalar first"),
     **_info(OUTPUT_NAMES[10:13], "rad/s", "angular velocity, body frame"),
     **_info(OUTPUT_NAMES[13:16], "rad/s2", "angular acceleration, body frame"),
-    **_info(OUTPUT_NAMES[16:19], "m", "centre of mass position, global"),
+    **_info(OUTPUT_NAMES[16:19], "m", "centre of mass of the dummy rigid body, global (the deformed body's "
+                                      "differs by second-order elastic terms on beam models)"),
     **_info(OUTPUT_NAMES[19:22], "m/s", "centre of mass velocity, global"),
     **_info(OUTPUT_NAMES[22:25], "m", "output point position, global, full motion"),
     **_info(OUTPUT_NAMES[25:28], "m/s", "output point velocity, global, full motion"),
