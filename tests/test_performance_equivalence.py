@@ -23,7 +23,7 @@ import pytest
 from flexfmu import _reframe_kernels as K
 from flexfmu.modal_basis import N_RIGID, modal_basis
 from flexfmu.models import load_model
-from flexfmu.plate import LOAD_POINT, paper_plate
+from flexfmu.plate import paper_plate
 from flexfmu.reframe import PointLoad, ReframeIntegrator, ReframeState, half_sine_pulse
 
 ROOT = Path(__file__).resolve().parents[1]

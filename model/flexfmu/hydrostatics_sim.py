@@ -11,13 +11,13 @@ Memoryless: the outputs follow the inputs (direct feedthrough); no convolution m
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from flexfmu.errors import require
-from flexfmu.sim_util import AXES, check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.sim_util import AXES, MemorylessSimulator, check_config, vector_info
 from flexfmu.wave import RHO_SEA, G, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
@@ -65,26 +65,14 @@ def coefficients(cfg: HydrostaticsConfig) -> tuple[np.ndarray, np.ndarray]:
     return box.hydrostatic_stiffness(), box.radiation_damping(cfg.zeta())
 
 
-class HydrostaticsSimulator:
+class HydrostaticsSimulator(MemorylessSimulator):
     """Inputs (platform motion) and outputs of one Hydrostatics instance."""
 
+    INPUTS = INPUT_NAMES
+
     def __init__(self, config: HydrostaticsConfig = HydrostaticsConfig()):
-        self.config = config
+        super().__init__(config)
         self.C, self.B = coefficients(config)
-        self.t = 0.0
-        self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
-
-    @property
-    def time(self) -> float:
-        return self.t
-
-    def set_inputs(self, **inputs: float) -> None:
-        check_inputs(inputs, INPUT_NAMES)
-        self.inputs.update({k: float(v) for k, v in inputs.items()})
-
-    def step(self, step_size: float) -> None:
-        check_step(step_size)
-        self.t += step_size
 
     def outputs(self) -> dict[str, float]:
         v = self.inputs
@@ -93,14 +81,6 @@ class HydrostaticsSimulator:
         force = -self.C @ xi - self.B @ xi_dot
         values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ self.B @ xi_dot)]
         return dict(zip(OUTPUT_NAMES, values))
-
-    def get_state(self) -> dict:
-        return {"t": self.t, "inputs": dict(self.inputs), "config": asdict(self.config)}
-
-    def set_state(self, data: dict) -> None:
-        check_state_config(data, self.config)
-        self.t = float(data["t"])
-        self.inputs = dict(data["inputs"])
 
 
 BOX_INFO: dict[str, tuple[str, str]] = {

@@ -25,6 +25,7 @@ import numpy as np
 from flexfmu.errors import ParameterError
 from flexfmu.hydrostatics_sim import BOX_INFO
 from flexfmu.sim_util import AXES, check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.vec3 import cross as _cross
 from flexfmu.wave import RHO_SEA, G, FloatingBox
 
 GROUPS = ("wave", "hydro", "payload", "pto")
@@ -69,10 +70,6 @@ def mass_matrix(cfg: PlatformConfig) -> np.ndarray:
     check_config(cfg)
     box = cfg.box().check()
     return box.rigid_mass_matrix() + box.added_mass()
-
-
-def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 class PlatformSimulator:

@@ -10,12 +10,12 @@ makes it act along that axis only (F = -c (v.n) n, power c (v.n)^2).  Memoryless
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
 from flexfmu.errors import require
-from flexfmu.sim_util import AXES, check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.sim_util import AXES, MemorylessSimulator, check_config, vector_info
 
 INPUT_NAMES = tuple(f"v_{a}" for a in AXES)
 OUTPUT_NAMES = (tuple(f"F_{a}" for a in AXES) + tuple(f"stator_F_{a}" for a in AXES)
@@ -43,27 +43,15 @@ def _check(cfg: PTOConfig) -> np.ndarray | None:
     return None if n == 0 else axis / n
 
 
-class PTOSimulator:
+class PTOSimulator(MemorylessSimulator):
     """Inputs and outputs of one PTO instance."""
 
+    INPUTS = INPUT_NAMES
+
     def __init__(self, config: PTOConfig = PTOConfig()):
-        self.config = config
+        super().__init__(config)
         self.axis = _check(config)
         self.r_a = np.array([config.attach_x, config.attach_y, config.attach_z])
-        self.t = 0.0
-        self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
-
-    @property
-    def time(self) -> float:
-        return self.t
-
-    def set_inputs(self, **inputs: float) -> None:
-        check_inputs(inputs, INPUT_NAMES)
-        self.inputs.update({k: float(v) for k, v in inputs.items()})
-
-    def step(self, step_size: float) -> None:
-        check_step(step_size)
-        self.t += step_size
 
     def force(self) -> np.ndarray:
         v = np.array([self.inputs[n] for n in INPUT_NAMES])
@@ -78,14 +66,6 @@ class PTOSimulator:
         r = self.r_a
         stator_M = -np.array([r[1] * F[2] - r[2] * F[1], r[2] * F[0] - r[0] * F[2], r[0] * F[1] - r[1] * F[0]])
         return dict(zip(OUTPUT_NAMES, F.tolist() + (-F).tolist() + stator_M.tolist() + [power]))
-
-    def get_state(self) -> dict:
-        return {"t": self.t, "inputs": dict(self.inputs), "config": asdict(self.config)}
-
-    def set_state(self, data: dict) -> None:
-        check_state_config(data, self.config)
-        self.t = float(data["t"])
-        self.inputs = dict(data["inputs"])
 
 
 #: name -> (unit, description) of every FMU variable.

@@ -471,7 +471,7 @@ class ReframeIntegrator:
             raise ParameterError("scheme", repr(scheme), '"consistent" or "paper"')
         self.scheme = scheme
         self.deformed_load_arm = bool(deformed_load_arm)
-        d = self.data = _ModelData(structure, basis)
+        self.data = _ModelData(structure, basis)
         self._setup_reference_points(reference_points)
         self._setup_consistent() if scheme == "consistent" else self._setup_paper()
         self._setup_max_displacement()

@@ -40,5 +40,38 @@ def check_state_config(data: dict, config) -> None:
             "a state of this instance's configuration")
 
 
+class MemorylessSimulator:
+    """Plumbing of a component whose outputs depend only on its inputs, parameters and time (no
+    dynamic state): the time, the held inputs, the step and the plain-data state for FMI get/set.
+    Subclasses set INPUTS (the input names) and compute outputs()."""
+
+    INPUTS: tuple = ()
+
+    def __init__(self, config):
+        self.config = config
+        self.t = 0.0
+        self.inputs = dict.fromkeys(self.INPUTS, 0.0)
+
+    @property
+    def time(self) -> float:
+        return self.t
+
+    def set_inputs(self, **inputs: float) -> None:
+        check_inputs(inputs, self.INPUTS)
+        self.inputs.update({k: float(v) for k, v in inputs.items()})
+
+    def step(self, step_size: float) -> None:
+        check_step(step_size)
+        self.t += step_size
+
+    def get_state(self) -> dict:
+        return {"t": self.t, "inputs": dict(self.inputs), "config": asdict(self.config)}
+
+    def set_state(self, data: dict) -> None:
+        check_state_config(data, self.config)
+        self.t = float(data["t"])
+        self.inputs = dict(data.get("inputs", {}))
+
+
 def vector_info(prefix: str, unit: str, text: str, frame: str = "body") -> dict:
     return {f"{prefix}_{a}": (unit, f"{text}, {frame} {a}") for a in AXES}

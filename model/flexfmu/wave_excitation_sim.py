@@ -7,13 +7,13 @@ ramped (``ramp_time``) so that the load and its rate start from zero.  See flexf
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from flexfmu.errors import require
-from flexfmu.sim_util import check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.sim_util import MemorylessSimulator, check_config, vector_info
 from flexfmu.wave import RHO_SEA, G, FloatingBox, froude_krylov_transfer, jonswap_sea, ramp, regular_wave
 
 SEA_STATES = ("regular", "jonswap")
@@ -59,24 +59,14 @@ def _build(cfg: WaveExcitationConfig):
     return waves, X
 
 
-class WaveExcitationSimulator:
+class WaveExcitationSimulator(MemorylessSimulator):
     """Time and outputs of one WaveExcitation instance."""
 
+    INPUTS = INPUT_NAMES
+
     def __init__(self, config: WaveExcitationConfig = WaveExcitationConfig()):
-        self.config = config
+        super().__init__(config)
         self.waves, self._X = _build(config)
-        self.t = 0.0
-
-    @property
-    def time(self) -> float:
-        return self.t
-
-    def set_inputs(self, **inputs: float) -> None:
-        check_inputs(inputs, INPUT_NAMES)
-
-    def step(self, step_size: float) -> None:
-        check_step(step_size)
-        self.t += step_size
 
     def load(self, t: float) -> np.ndarray:
         """Force and moment about O (global), (6,), at time t."""
@@ -87,13 +77,6 @@ class WaveExcitationSimulator:
     def outputs(self) -> dict[str, float]:
         eta = ramp(self.t, self.config.ramp_time) * self.waves.elevation(self.t)
         return dict(zip(OUTPUT_NAMES, self.load(self.t).tolist() + [eta]))
-
-    def get_state(self) -> dict:
-        return {"t": self.t, "config": asdict(self.config)}
-
-    def set_state(self, data: dict) -> None:
-        check_state_config(data, self.config)
-        self.t = float(data["t"])
 
 
 #: name -> (unit, description) of every FMU variable.
