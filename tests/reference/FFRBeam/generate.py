@@ -34,37 +34,13 @@ from flexfmu.assembly import build_beam_model
 from flexfmu.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from crosscheck_files import num, step_table, write_csv  # noqa: E402  (shared cross-check writers)
 FMU = "FFRBeam"
 STEEL = {"E": 200e9, "nu": 0.29, "rho": 7850.0}
 
 
 # ----------------------------------------------------------------------------- file writers
-def _num(x: float) -> str:
-    return repr(float(x))          # shortest text that reads back to the same double
-
-
-def write_csv(path: Path, names, columns) -> None:
-    """fmi-cross-check CSV: quoted header, one row per time; columns (n_rows,) each."""
-    cols = [np.asarray(c, float) for c in columns]
-    lines = [",".join(f'"{n}"' for n in names)]
-    lines += [",".join(_num(c[i]) for c in cols) for i in range(len(cols[0]))]
-    path.write_text("\n".join(lines) + "\n")
-
-
-def step_table(step_times, values, stop_time):
-    """Rows of a step-shaped input table: value k held on [t_k, t_{k+1}); a jump is two rows at one time.
-    values (n_steps, n_inputs).  Runs of equal values are merged."""
-    values = np.atleast_2d(np.asarray(values, float))
-    edges = list(step_times) + [stop_time]
-    rows = [(edges[0], values[0])]
-    for k in range(1, len(values)):
-        if np.array_equal(values[k], values[k - 1]):
-            continue
-        rows += [(edges[k], values[k - 1]), (edges[k], values[k])]
-    rows.append((edges[-1], values[-1]))
-    return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
-
-
 def write_case(name: str, *, start: dict, opt: dict, inputs: dict | None, ref_time, ref: dict,
                files: dict | None = None) -> Path:
     """inputs: {name: constant} held from StartTime to StopTime, or None; ref: {column: values}."""
@@ -73,7 +49,7 @@ def write_case(name: str, *, start: dict, opt: dict, inputs: dict | None, ref_ti
     for fname, text in (files or {}).items():
         (folder / fname).write_text(text)
     (folder / f"{FMU}_start.json").write_text(json.dumps(start, indent=2) + "\n")
-    (folder / f"{FMU}_ref.opt").write_text("".join(f"{k}, {_num(v)}\n" for k, v in opt.items()))
+    (folder / f"{FMU}_ref.opt").write_text("".join(f"{k}, {num(v)}\n" for k, v in opt.items()))
     if inputs:
         t, v = step_table([opt["StartTime"]], [list(inputs.values())], opt["StopTime"])
         write_csv(folder / f"{FMU}_in.csv", ["time", *inputs], [t, *v.T])

@@ -32,6 +32,8 @@ from flexfmu.plate import CORNER_MASS, CORNERS, DENSITY, LENGTHS, LOAD_POINT, pa
 from flexfmu.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from crosscheck_files import num, step_table, write_csv  # noqa: E402  (shared cross-check writers)
 FMU = "ReframeBody"
 PAPER_FORCE = 50.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)    # N, global
 PULSE = 0.01                                                        # s, half-sine duration
@@ -39,38 +41,12 @@ P1 = CORNERS[0]                                                     # the defaul
 
 
 # ----------------------------------------------------------------------------- file writers
-def _num(x: float) -> str:
-    return repr(float(x))          # shortest text that reads back to the same double
-
-
-def write_csv(path: Path, names, columns) -> None:
-    """fmi-cross-check CSV: quoted header, one row per time; columns (n_rows,) each."""
-    cols = [np.asarray(c, float) for c in columns]
-    lines = [",".join(f'"{n}"' for n in names)]
-    lines += [",".join(_num(c[i]) for c in cols) for i in range(len(cols[0]))]
-    path.write_text("\n".join(lines) + "\n")
-
-
-def step_table(step_times, values, stop_time):
-    """Rows of a step-shaped input table: value k held on [t_k, t_{k+1}); a jump is two rows at one time.
-    values (n_steps, n_inputs).  Runs of equal values are merged."""
-    values = np.atleast_2d(np.asarray(values, float))
-    edges = list(step_times) + [stop_time]
-    rows = [(edges[0], values[0])]
-    for k in range(1, len(values)):
-        if np.array_equal(values[k], values[k - 1]):
-            continue
-        rows += [(edges[k], values[k - 1]), (edges[k], values[k])]
-    rows.append((edges[-1], values[-1]))
-    return np.array([r[0] for r in rows]), np.array([r[1] for r in rows])
-
-
 def write_case(name: str, *, start: dict, opt: dict, input_names, step_times, input_values, ref_time,
                ref: dict) -> Path:
     folder = HERE / name
     folder.mkdir(exist_ok=True)
     (folder / f"{FMU}_start.json").write_text(json.dumps(start, indent=2) + "\n")
-    (folder / f"{FMU}_ref.opt").write_text("".join(f"{k}, {_num(v)}\n" for k, v in opt.items()))
+    (folder / f"{FMU}_ref.opt").write_text("".join(f"{k}, {num(v)}\n" for k, v in opt.items()))
     t, v = step_table(step_times, input_values, opt["StopTime"])
     write_csv(folder / f"{FMU}_in.csv", ["time", *input_names], [t, *v.T])
     write_csv(folder / f"{FMU}_ref.csv", ["time", *ref], [ref_time, *ref.values()])
