@@ -57,6 +57,9 @@ def main() -> int:
     task = sys.argv[1] if len(sys.argv) > 1 else "help"
     extra = sys.argv[2:]
     if task == "main":
+        if extra:
+            print(f"tasks.py main takes no arguments (got {' '.join(extra)}); see README.md", file=sys.stderr)
+            return 2
         # The modal report, the FMUs, then both papers' scenarios through fmpy.
         for argv in (["-m", "flexfmu", "main"], ["build_scripts/build_fmus.py", "--out", "dist"],
                      ["examples/hammer_test.py", "--fmu", "dist/FFRBeam.fmu", "--plot", "dist/hammer_fft.png"],
