@@ -83,7 +83,15 @@ class FlexfmuPlumbing:
             self._sim.set_inputs(**{name: self._values[name] for name in self.input_names})
         except FlexfmuError as exc:
             self._fail(str(exc))
+        self._log_messages()
         self._values.update(self._sim.outputs())
+
+    def _log_messages(self):
+        """Log (status OK) and clear what the simulator chose and why (its ``messages`` list, if any):
+        automatic model size, RK4 sub-stepping."""
+        messages = getattr(self._sim, "messages", None)
+        while messages:
+            self.slave.log(messages.pop(0), Fmi2Status.ok)
 
     def do_step(self, current_time, step_size):
         sim = self._sim
@@ -102,6 +110,8 @@ class FlexfmuPlumbing:
                 values.update(sim.outputs())
         except FlexfmuError as exc:
             self._fail(str(exc))
+        if getattr(sim, "messages", None):
+            self._log_messages()
         return True
 
     # ---- whole-state get/set/serialize (registered variables alone would miss the internal state)
