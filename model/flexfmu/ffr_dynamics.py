@@ -20,7 +20,22 @@ inertia of the cross-sections (rho*Ip, in M) is left out of them (relative size
 d^2 / (8 L^2) ~ 1e-4 for the specimen).  In modal coordinates q = Phi eta (mass-normalised
 modes of the clamped structure) (*) becomes an m x m system with constant matrices while
 (a0, omega, alpha) are held, which is what a co-simulation step does (zero-order hold):
-it is advanced exactly with the matrix exponential (no step-size limit).
+it is advanced exactly with the matrix exponential (no step-size limit).  ``integrator="rk4"``
+advances the same held-input system x' = A x + B u, x = [eta; eta_dot], by one classical RK4 step
+instead, as matrices (stable only for h <= :meth:`FFRBeamDynamics.rk4_step_limit`):
+
+    x+ = Ad x + Bd u,   Ad = I + hA + (hA)^2/2 + (hA)^3/6 + (hA)^4/24,
+                        Bd = h (I + hA/2 + (hA)^2/6 + (hA)^3/24) B.
+
+Geometric stiffening (``geometric_stiffening=True``): (*) is linear about the *unstressed* rod, so it
+keeps the centrifugal softening X_ab M_ab but not the stiffening by the stress that the same inertial load
+induces; a cantilever spun past its first bending frequency then diverges.  The option adds the geometric
+stiffness of the quasi-static prestress of the held inertial load -rho (a0 + X u0)
+(flexfmu.geometric_stiffness, Eqs. (1)-(4) there), in modal coordinates:
+
+    K_eff = Lambda + sum_ab X_ab M_ab_hat + sum_ab X_ab G_ab_hat + sum_a a0_a G_a_hat,     G_hat = Phi^T G Phi.
+
+K_eff then depends on a0 as well: the step maps are cached per (h, omega, alpha, a0).
 
 Reactions: Newton-Euler for the whole rod gives what the structure exerts on its clamps
 (body frame, about the frame origin):
@@ -40,12 +55,17 @@ import scipy.sparse as sp
 from flexfmu.assembly import BeamModel
 from flexfmu.beam_element import local_shape_functions
 from flexfmu.errors import require
+from flexfmu.geometric_stiffness import inertial_geometric_stiffness
 from flexfmu.kinematics import point_shape
 from flexfmu.modal import Modes
 from flexfmu.vec3 import cross as _cross
 from flexfmu.vec3 import skew as _skew
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)   # exact for the degree-6 products of Hermite cubics
+INTEGRATORS = ("exact", "rk4")
+#: Classical RK4 is stable for h |lambda| up to 2 sqrt(2) = 2.83 on the imaginary axis (undamped modes) and
+#: 2.79 on the negative real axis; 2.8 is the limit used for lightly damped modes (as flexfmu.reframe's).
+RK4_STABILITY_LIMIT = 2.8
 
 
 @dataclass
@@ -143,12 +163,20 @@ class FFRBeamDynamics:
     model: the constrained BeamModel; modes: its retained modes (shapes on the free DOFs);
     damping_ratio: modal damping zeta (each mode gets 2 zeta omega_i);
     load_s / sensor_s: arc lengths (m) of the load point and of the sensor.
+    integrator: "exact" (zero-order-hold matrix exponential, default) or "rk4" (one classical RK4 step
+    of the same held-input system, see the module docstring).
+    geometric_stiffening: add the geometric stiffness of the prestress of the held inertial load.
     """
 
     def __init__(self, model: BeamModel, modes: Modes, damping_ratio: float, load_s: float, sensor_s: float,
-                 tip_s: float | None = None):
+                 tip_s: float | None = None, *, integrator: str = "exact", geometric_stiffening: bool = False):
         require(np.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0, "damping_ratio",
                 f"got {damping_ratio!r}", "0 <= damping_ratio < 1")
+        require(integrator in INTEGRATORS, "integrator", f"got {integrator!r}", " | ".join(INTEGRATORS))
+        require(isinstance(geometric_stiffening, (bool, np.bool_)), "geometric_stiffening",
+                f"got {geometric_stiffening!r}", "True | False")
+        self.integrator = integrator
+        self.geometric_stiffening = bool(geometric_stiffening)
         require(model.clamped_nodes.size > 0, "boundary", "the structure has no clamp",
                 "a boundary that clamps at least one point (XFF | XFX | FXF | FXF_mid or scene clamps)")
         self.model, self.modes, self.damping_ratio = model, modes, float(damping_ratio)
@@ -176,6 +204,9 @@ class FFRBeamDynamics:
         self.load_disp_map = self.load.full_translation(n) @ Phi         # (3, m)
         # Reaction integrals in modal coordinates: int rho S q = S_bar_hat eta; the cross integrals
         # int rho u0 x (S q) etc. go through P_hat (3, 3, m).
+        if self.geometric_stiffening:
+            # G_X_hat (3, 3, m, m) per unit X_ab, G_a0_hat (3, m, m) per unit a0_a (kg, kg/m)
+            self.G_X_hat, self.G_a0_hat = inertial_geometric_stiffness(model).modal(Phi)
         self._cache: dict = {}
         self._fast_cache: dict = {}
 
@@ -185,8 +216,34 @@ class FFRBeamDynamics:
         W = _skew(base.omega)
         X = _skew(base.alpha) + W @ W
         K_eff = np.diag(self.stiffness) + np.einsum("ab,abij->ij", X, self.H_hat)
+        if self.geometric_stiffening:
+            K_eff = (K_eff + np.einsum("ab,abij->ij", X, self.G_X_hat)
+                     + np.einsum("a,aij->ij", np.asarray(base.a0, float), self.G_a0_hat))
         C_eff = np.diag(self.damping) + 2.0 * np.einsum("ab,abij->ij", W, self.H_hat)
         return K_eff, C_eff
+
+    def _base_key(self, base: BaseMotion) -> tuple:
+        """Cache key of the held base motion: what K_eff and C_eff depend on."""
+        if self.geometric_stiffening:
+            return base.key() + tuple(np.asarray(base.a0, float).tolist())
+        return base.key()
+
+    def system_matrix(self, base: BaseMotion) -> np.ndarray:
+        """A of x' = A x + B u, x = [eta; eta_dot], for the held base motion (2m, 2m)."""
+        m = self.m
+        K_eff, C_eff = self._matrices(base)
+        A = np.zeros((2 * m, 2 * m))
+        A[:m, m:] = np.eye(m)
+        A[m:, :m] = -K_eff
+        A[m:, m:] = -C_eff
+        return A
+
+    def rk4_step_limit(self, base: BaseMotion) -> float:
+        """Largest step (s) for which RK4 is stable on the held system: RK4_STABILITY_LIMIT / max |eig(A)|
+        (inf without modes).  Beyond it the highest mode grows every step."""
+        if self.m == 0:
+            return float("inf")
+        return RK4_STABILITY_LIMIT / float(np.max(np.abs(np.linalg.eigvals(self.system_matrix(base)))))
 
     def modal_force(self, force_body, moment_body, base: BaseMotion) -> np.ndarray:
         """Right-hand side of (*) in modal coordinates."""
@@ -200,11 +257,21 @@ class FFRBeamDynamics:
 
     # ------------------------------------------------------------ exact zero-order-hold step
     def _transition(self, h: float, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:
-        key = (h, base.key())
+        key = (h, self._base_key(base))
         hit = self._cache.get(key)
         if hit is not None:
             return hit
         m = self.m
+        if self.integrator == "rk4":
+            hA = h * self.system_matrix(base)
+            I = np.eye(2 * m)
+            P = I + hA @ (I / 2 + hA @ (I / 6 + hA / 24))     # I + hA/2 + (hA)^2/6 + (hA)^3/24
+            Ad = I + hA @ P
+            Bd = h * P[:, m:]                                 # h P B with B = [0; I]
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = (Ad, Bd)
+            return Ad, Bd
         K_eff, C_eff = self._matrices(base)
         A = np.zeros((2 * m + 1 + m, 2 * m + 1 + m))
         # Augmented exponential [[A, B], [0, 0]] gives e^{Ah} and int_0^h e^{As} ds B for B = [0; I].
@@ -221,7 +288,8 @@ class FFRBeamDynamics:
         return Ad, Bd
 
     def step(self, state: ModalState, h: float, force_body, moment_body, base: BaseMotion) -> ModalState:
-        """Advance by h (s) with force, moment and base motion held constant (exact for that input)."""
+        """Advance by h (s) with force, moment and base motion held constant (exact for that input; one
+        RK4 step with integrator="rk4")."""
         require(np.isfinite(h) and h > 0, "step size", f"got {h!r}", "> 0 s")
         Ad, Bd = self._transition(float(h), base)
         x = Ad @ np.concatenate([state.eta, state.eta_dot]) + Bd @ self.modal_force(force_body, moment_body, base)
@@ -287,8 +355,8 @@ class FFRBeamDynamics:
         with y = [sensor u, sensor v, sensor a, tip u, reaction F, reaction M] (18 values): the same
         quantities as :meth:`step`, :meth:`sensor_motion`, :meth:`tip_displacement` and
         :meth:`reactions` (tests/test_performance_equivalence.py), at O(m^2) per step.  Cached per
-        (h, omega, alpha); ``h = None`` gives the output maps only."""
-        key = (h, base.key())
+        (h, omega, alpha) (and a0 with geometric stiffening); ``h = None`` gives the output maps only."""
+        key = (h, self._base_key(base))
         hit = self._fast_cache.get(key)
         if hit is not None:
             return hit
