@@ -1,5 +1,5 @@
-"""Hot loops of the consistent reframe scheme (:mod:`flexfmu.reframe`): whole RK4 steps and the outputs
-of one state, in modal space, on flat arrays.
+"""Hot loops of the consistent and exponential reframe schemes (:mod:`flexfmu.reframe`): whole RK4 or
+ETD-RK4 steps and the outputs of one state, in modal space, on flat arrays.
 
 Compiled with numba when it is installed (``pip install flexfmu[perf]``; compiled code cached on disk
 next to this file) and run as plain numpy code otherwise, or with ``FLEXFMU_NUMBA=0`` in the
@@ -17,6 +17,10 @@ Layouts (built by ``flexfmu.reframe._ConsistentKernel``):
   X_i - c (3), translational rows of Phi at the node (3*nf), rotational rows (3*nf, zeros if none).
 * ``SV`` load values (n_steps or 1, 3 stages t, t + dt/2, t + dt, n_loads, 6 = force, moment).
 * ``y`` state: frame point (3), rotation body -> global (9, row-major), eta (2 (6 + nf)).
+* ``G`` geometric stiffness (9 nf^2: (3, 3, nf, nf) row-major, body frame) or empty: adds
+  -(sum_ab X_ab G_ab) q_F, X = skew(omega)^2, to the flexible momentum rate.
+* ``EX`` exponential-scheme coefficients for one dt (nf, 6, 2, 2 row-major: E1, E2, A2, B1, B2, B4 of
+  ``flexfmu.reframe._exponential_coefficients``) or empty: classical RK4 (consistent scheme).
 """
 from __future__ import annotations
 
@@ -289,8 +293,24 @@ def _loads(LP, nf, deformed, sv, R, q):
 
 
 @_py
-def _rhs(P, LP, nf, deformed, sv, Rn, z):
-    """Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q] (flexfmu.reframe._rhs)."""
+def _geometric_force(G, nf, w, q):
+    """-(sum_ab X_ab G_ab) q with X = skew(w) skew(w) = w w^T - |w|^2 I (the geometric-stiffness hook;
+    G: (9 nf nf,) = (3, 3, nf, nf) row-major, body frame)."""
+    X = np.outer(w, w)
+    ww = np.dot(w, w)
+    for a in range(3):
+        X[a, a] -= ww
+    Kg = np.dot(X.reshape(9), G.reshape(9, nf * nf)).reshape(nf, nf)
+    return -np.dot(Kg, q)
+
+
+@_py
+def _rhs(P, LP, G, nf, deformed, sv, Rn, z, split):
+    """Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q] (flexfmu.reframe._rhs).
+
+    split=True (exponential scheme): N(z) = z' - L z instead, with L z = [0 (12), p_q, -k q - c p_q]
+    the flexible modes' linear oscillator block, computed without forming L z (no k q cancellation):
+    q' - p_q = -D(q)^T w and p_q' + k q + c p_q = dT/dq + c D^T w + Q."""
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     phi = z[0:3]
@@ -308,15 +328,37 @@ def _rhs(P, LP, nf, deformed, sv, Rn, z):
     out[3:6] = np.dot(R, v)
     out[6:9] = F_g
     out[9:12] = np.dot(Rrel, N_b - _cross(v, p_b))
-    out[12:12 + nf] = qd
     if nf:
-        out[12 + nf:] = _dTdq(P, nf, v, w, q, qd) - P[o_k:o_c] * q - P[o_c:o_A6] * qd + Q
+        if split:
+            Dtw = np.dot(D.T, w)
+            out[12:12 + nf] = -Dtw
+            out[12 + nf:] = _dTdq(P, nf, v, w, q, qd) + P[o_c:o_A6] * Dtw + Q
+        else:
+            out[12:12 + nf] = qd
+            out[12 + nf:] = _dTdq(P, nf, v, w, q, qd) - P[o_k:o_c] * q - P[o_c:o_A6] * qd + Q
+        if G.shape[0]:
+            out[12 + nf:] += _geometric_force(G, nf, w, q)
     return out
 
 
 @_py
-def _step(P, LP, nf, deformed, sv, dt, y):
-    """One consistent step of y in place (flexfmu.reframe._consistent_step); False if not finite."""
+def _expmap(EX, nf, k, z, s):
+    """[s z_frame; M_j (q_j, p_j) per mode]: matrix k of the exponential scheme's coefficients EX (nf, 6,
+    2, 2 row-major) on the flexible pairs, the scalar s (its value for L = 0) on the 12 frame components."""
+    X = EX.reshape(nf, 6, 2, 2)
+    out = np.empty(z.shape[0])
+    out[0:12] = s * z[0:12]
+    q = z[12:12 + nf]
+    p = z[12 + nf:]
+    out[12:12 + nf] = X[:, k, 0, 0] * q + X[:, k, 0, 1] * p
+    out[12 + nf:] = X[:, k, 1, 0] * q + X[:, k, 1, 1] * p
+    return out
+
+
+@_py
+def _step(P, LP, G, EX, nf, deformed, sv, dt, y):
+    """One step of y in place (flexfmu.reframe): classical RK4 (EX empty, scheme "consistent") or the
+    exponential ETD-RK4 (EX = its coefficients, scheme "exponential"); False if not finite."""
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     A6 = P[o_A6:o_A6i].reshape(6, 6)
@@ -338,11 +380,25 @@ def _step(P, LP, nf, deformed, sv, dt, y):
         z0[12 + nf:] = np.dot(D.T, w) + qd
     z0[9:12] = h
     z0[12:12 + nf] = q
-    k1 = _rhs(P, LP, nf, deformed, sv[0], Rn, z0)
-    k2 = _rhs(P, LP, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k1)
-    k3 = _rhs(P, LP, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k2)
-    k4 = _rhs(P, LP, nf, deformed, sv[2], Rn, z0 + dt * k3)
-    z = z0 + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    if EX.shape[0] == 0:
+        k1 = _rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, False)
+        k2 = _rhs(P, LP, G, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k1, False)
+        k3 = _rhs(P, LP, G, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k2, False)
+        k4 = _rhs(P, LP, G, nf, deformed, sv[2], Rn, z0 + dt * k3, False)
+        z = z0 + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    else:
+        # Cox-Matthews ETD-RK4 (flexfmu.reframe._exponential_coefficients): E1 = e^{hL}, E2 = e^{hL/2},
+        # A2 = h/2 phi1(hL/2), B1, B2, B4 = h (phi1 - 3 phi2 + 4 phi3), h (2 phi2 - 4 phi3), h (4 phi3 - phi2).
+        E2z0 = _expmap(EX, nf, 1, z0, 1.0)
+        Nu = _rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, True)
+        a = E2z0 + _expmap(EX, nf, 2, Nu, 0.5 * dt)
+        Na = _rhs(P, LP, G, nf, deformed, sv[1], Rn, a, True)
+        b = E2z0 + _expmap(EX, nf, 2, Na, 0.5 * dt)
+        Nb = _rhs(P, LP, G, nf, deformed, sv[1], Rn, b, True)
+        c = _expmap(EX, nf, 1, a, 1.0) + _expmap(EX, nf, 2, 2.0 * Nb - Nu, 0.5 * dt)
+        Nc = _rhs(P, LP, G, nf, deformed, sv[2], Rn, c, True)
+        z = (_expmap(EX, nf, 0, z0, 1.0) + _expmap(EX, nf, 3, Nu, dt / 6.0) + _expmap(EX, nf, 4, Na + Nb, dt / 3.0)
+             + _expmap(EX, nf, 5, Nc, dt / 6.0))
     Rrel = _rodrigues(z[0:3])
     R = np.dot(Rn, Rrel)
     R = 1.5 * R - 0.5 * np.dot(np.dot(R, R.T), R)          # one Newton step of the polar decomposition
@@ -365,20 +421,28 @@ def _step(P, LP, nf, deformed, sv, dt, y):
 
 
 @_py
-def consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
-    """n consistent steps from state y at time t.  SV: (n, 3, n_loads, 6), or (1, ...) with held=True
-    (the same load values every step).  Returns (new y, new t, steps done, status): status 0 ok, 1 the
-    loads of step ``steps done`` are not finite, 2 that step's state is not finite."""
+def reframe_steps(P, LP, G, EX, nf, deformed, SV, held, t, dt, n, y):
+    """n steps from state y at time t.  G: geometric stiffness (9 nf^2,) or empty; EX: exponential-scheme
+    coefficients for this dt (24 nf,) or empty (RK4, the consistent scheme).  SV: (n, 3, n_loads, 6), or
+    (1, ...) with held=True (the same load values every step).  Returns (new y, new t, steps done,
+    status): status 0 ok, 1 the loads of step ``steps done`` are not finite, 2 that step's state is not
+    finite."""
     y = y.copy()
     for k in range(n):
         sv = SV[0] if held else SV[k]
         for v in sv.ravel():
             if not math.isfinite(v):
                 return y, t, k, 1
-        if not _step(P, LP, nf, deformed, sv, dt, y):
+        if not _step(P, LP, G, EX, nf, deformed, sv, dt, y):
             return y, t + dt, k, 2
         t = t + dt
     return y, t, n, 0
+
+
+@_py
+def consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
+    """:func:`reframe_steps` of the consistent scheme without geometric stiffness."""
+    return reframe_steps_numpy(P, LP, np.zeros(0), np.zeros(0), nf, deformed, SV, held, t, dt, n, y)
 
 
 # --------------------------------------------------------------------------- outputs of one state
@@ -524,7 +588,14 @@ def output_size(nf: int, n_points: int) -> int:
 
 @_py
 def consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
-    """All outputs of state y with load values sv (n_loads, 6) at its time.  PP: output points, one row
+    """:func:`reframe_outputs` without geometric stiffness."""
+    return reframe_outputs_numpy(P, LP, np.zeros(0), nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr)
+
+
+@_py
+def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
+    """All outputs of state y with load values sv (n_loads, 6) at its time (G: as :func:`reframe_steps`).
+    PP: output points, one row
     [X - c (3), Phi rows (3*nf)] each.  Returns [frame origin 3, frame origin velocity 3, quaternion 4,
     omega 3, alpha 3, com position 3, com velocity 3, q nf, qdot nf, max elastic displacement 1, then per
     point position, velocity, acceleration (full), position, velocity, acceleration (rigid) 6 x 3]."""
@@ -553,6 +624,8 @@ def consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, 
     b3 = np.zeros(nf)
     if nf:
         b3 = _dTdq(P, nf, v, w, q, qd) - P[o_k:o_c] * q - P[o_c:o_A6] * qd + Q
+        if G.shape[0]:
+            b3 = b3 + _geometric_force(G, nf, w, q)
         # minus Mdot xi: Mm is quadratic in q, d/dt along qdot: A(qd), J'(q; qd), D(qd)
         Ad = np.dot(qd, P[o_A:o_B].reshape(nf, 9)).reshape(3, 3)
         Cqd = np.dot(qd, P[o_C:o_D].reshape(nf, nf * 9)).reshape(nf, 9)
@@ -813,7 +886,26 @@ def _nb_dTdq(P, nf, v, w, qd, Cq, out):
 
 
 @_jit
-def _nb_rhs(P, LP, nf, deformed, sv, Rn9, z, out):
+def _nb_geometric_force(G, nf, w, q, out):
+    """out += -(sum_ab X_ab G_ab) q, X = w w^T - |w|^2 I (as _geometric_force)."""
+    ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+    X = np.empty(9)
+    for a in range(3):
+        for b in range(3):
+            X[3 * a + b] = w[a] * w[b] - (ww if a == b else 0.0)
+    n2 = nf * nf
+    for j in range(nf):
+        s = 0.0
+        for k in range(nf):
+            g = 0.0
+            for ab in range(9):
+                g += X[ab] * G[ab * n2 + j * nf + k]
+            s += g * q[k]
+        out[j] -= s
+
+
+@_jit
+def _nb_rhs(P, LP, G, nf, deformed, sv, Rn9, z, split, out):
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     Rrel = np.empty(9)
@@ -860,13 +952,35 @@ def _nb_rhs(P, LP, nf, deformed, sv, Rn9, z, out):
     if nf:
         dT = np.empty(nf)
         _nb_dTdq(P, nf, v, w, qd, Cq, dT)
-        for j in range(nf):
-            out[12 + j] = qd[j]
-            out[12 + nf + j] = dT[j] - P[o_k + j] * q[j] - P[o_c + j] * qd[j] + Q[j]
+        if split:                              # N = z' - L z (exponential scheme, see _rhs)
+            for j in range(nf):
+                Dtw = D[j] * w[0] + D[nf + j] * w[1] + D[2 * nf + j] * w[2]
+                out[12 + j] = -Dtw
+                out[12 + nf + j] = dT[j] + P[o_c + j] * Dtw + Q[j]
+        else:
+            for j in range(nf):
+                out[12 + j] = qd[j]
+                out[12 + nf + j] = dT[j] - P[o_k + j] * q[j] - P[o_c + j] * qd[j] + Q[j]
+        if G.shape[0]:
+            _nb_geometric_force(G, nf, w, q, out[12 + nf:12 + 2 * nf])
 
 
 @_jit
-def _nb_step(P, LP, nf, deformed, sv, dt, y):
+def _nb_expmap(EX, nf, k, z, s, add, out):
+    """out (+)= [s z_frame; EX_k (q_j, p_j)] (as _expmap): added to out if add, else written (out may be
+    uninitialised then)."""
+    for i in range(12):
+        out[i] = (out[i] if add else 0.0) + s * z[i]
+    for j in range(nf):
+        o = 24 * j + 4 * k
+        qj = z[12 + j]
+        pj = z[12 + nf + j]
+        out[12 + j] = (out[12 + j] if add else 0.0) + EX[o] * qj + EX[o + 1] * pj
+        out[12 + nf + j] = (out[12 + nf + j] if add else 0.0) + EX[o + 2] * qj + EX[o + 3] * pj
+
+
+@_jit
+def _nb_step(P, LP, G, EX, nf, deformed, sv, dt, y):
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     nm = N_RIGID + nf
@@ -907,19 +1021,44 @@ def _nb_step(P, LP, nf, deformed, sv, dt, y):
     k3 = np.empty(nz)
     k4 = np.empty(nz)
     zs = np.empty(nz)
-    _nb_rhs(P, LP, nf, deformed, sv[0], Rn, z0, k1)
-    for i in range(nz):
-        zs[i] = z0[i] + 0.5 * dt * k1[i]
-    _nb_rhs(P, LP, nf, deformed, sv[1], Rn, zs, k2)
-    for i in range(nz):
-        zs[i] = z0[i] + 0.5 * dt * k2[i]
-    _nb_rhs(P, LP, nf, deformed, sv[1], Rn, zs, k3)
-    for i in range(nz):
-        zs[i] = z0[i] + dt * k3[i]
-    _nb_rhs(P, LP, nf, deformed, sv[2], Rn, zs, k4)
-    z = zs
-    for i in range(nz):
-        z[i] = z0[i] + (dt / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    if EX.shape[0] == 0:                     # classical RK4 (consistent scheme)
+        _nb_rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, False, k1)
+        for i in range(nz):
+            zs[i] = z0[i] + 0.5 * dt * k1[i]
+        _nb_rhs(P, LP, G, nf, deformed, sv[1], Rn, zs, False, k2)
+        for i in range(nz):
+            zs[i] = z0[i] + 0.5 * dt * k2[i]
+        _nb_rhs(P, LP, G, nf, deformed, sv[1], Rn, zs, False, k3)
+        for i in range(nz):
+            zs[i] = z0[i] + dt * k3[i]
+        _nb_rhs(P, LP, G, nf, deformed, sv[2], Rn, zs, False, k4)
+        z = zs
+        for i in range(nz):
+            z[i] = z0[i] + (dt / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
+    else:                                    # Cox-Matthews ETD-RK4 (exponential scheme, see _step)
+        E2z0 = np.empty(nz)
+        a = np.empty(nz)
+        tmp = np.empty(nz)
+        _nb_expmap(EX, nf, 1, z0, 1.0, False, E2z0)
+        _nb_rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, True, k1)
+        a[:] = E2z0
+        _nb_expmap(EX, nf, 2, k1, 0.5 * dt, True, a)
+        _nb_rhs(P, LP, G, nf, deformed, sv[1], Rn, a, True, k2)
+        zs[:] = E2z0
+        _nb_expmap(EX, nf, 2, k2, 0.5 * dt, True, zs)
+        _nb_rhs(P, LP, G, nf, deformed, sv[1], Rn, zs, True, k3)
+        _nb_expmap(EX, nf, 1, a, 1.0, False, zs)
+        for i in range(nz):
+            tmp[i] = 2.0 * k3[i] - k1[i]
+        _nb_expmap(EX, nf, 2, tmp, 0.5 * dt, True, zs)
+        _nb_rhs(P, LP, G, nf, deformed, sv[2], Rn, zs, True, k4)
+        z = zs
+        _nb_expmap(EX, nf, 0, z0, 1.0, False, z)
+        _nb_expmap(EX, nf, 3, k1, dt / 6.0, True, z)
+        for i in range(nz):
+            tmp[i] = k2[i] + k3[i]
+        _nb_expmap(EX, nf, 4, tmp, dt / 3.0, True, z)
+        _nb_expmap(EX, nf, 5, k4, dt / 6.0, True, z)
     Rrel = np.empty(9)
     R1 = np.empty(9)
     _rod9(z[0:3], Rrel)
@@ -962,7 +1101,7 @@ def _nb_step(P, LP, nf, deformed, sv, dt, y):
 
 
 @_jit
-def _nb_consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
+def _nb_reframe_steps(P, LP, G, EX, nf, deformed, SV, held, t, dt, n, y):
     y = y.copy()
     for k in range(n):
         sv = SV[0] if held else SV[k]
@@ -970,14 +1109,24 @@ def _nb_consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
             for v in sv.ravel():
                 if not math.isfinite(v):
                     return y, t, k, 1
-        if not _nb_step(P, LP, nf, deformed, sv, dt, y):
+        if not _nb_step(P, LP, G, EX, nf, deformed, sv, dt, y):
             return y, t + dt, k, 2
         t = t + dt
     return y, t, n, 0
 
 
 @_jit
+def _nb_consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
+    return _nb_reframe_steps(P, LP, np.zeros(0), np.zeros(0), nf, deformed, SV, held, t, dt, n, y)
+
+
+@_jit
 def _nb_consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
+    return _nb_reframe_outputs(P, LP, np.zeros(0), nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr)
+
+
+@_jit
+def _nb_reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     nm = N_RIGID + nf
@@ -1029,6 +1178,8 @@ def _nb_consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, 
         _nb_dTdq(P, nf, v, w, qd, Cq, b3)
         for j in range(nf):
             b3[j] += -P[o_k + j] * q[j] - P[o_c + j] * qd[j] + Q[j]
+        if G.shape[0]:
+            _nb_geometric_force(G, nf, w, q, b3)
         # minus Mdot xi (Mm quadratic in q): A(qd), B(qd) + sum_k (qd_k Cq_k + q_k Cqd_k), D(qd)
         Ad = np.empty(9)
         Bd = np.empty(9)
@@ -1128,8 +1279,12 @@ def _nb_consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, 
 #: the numpy versions, whatever is installed (tests compare them with the compiled ones)
 consistent_steps_numpy = consistent_steps
 consistent_outputs_numpy = consistent_outputs
+reframe_steps_numpy = reframe_steps
+reframe_outputs_numpy = reframe_outputs
 if NUMBA:
     consistent_steps = _nb_consistent_steps           # noqa: F811
     consistent_outputs = _nb_consistent_outputs       # noqa: F811
+    reframe_steps = _nb_reframe_steps                 # noqa: F811
+    reframe_outputs = _nb_reframe_outputs             # noqa: F811
 else:
     max_node_norm = max_node_norm_numpy               # noqa: F811

@@ -6,7 +6,7 @@ X. Liu, "A Novel Approach for Flexible Body Dynamics Computation via Synthesizin
 in Reconfigured Inertial Frames" (``shared/papers/reframe-flexible-body.txt``).  docs/reframe.md
 explains both schemes, the defects of the printed one and the measured orders.
 
-Two schemes (``scheme=``):
+Three schemes (``scheme=``):
 
 ``"consistent"`` (default)
     Each step n is taken in the inertial frame that coincides with the dummy rigid body at t_n.  The
@@ -25,6 +25,33 @@ Two schemes (``scheme=``):
 
 ``"paper"``
     Section 3 as printed (Eqs. 36-40), ambiguities resolved as documented in :meth:`_paper_step`.
+
+``"exponential"``
+    The consistent scheme's equations and step-local state z = [phi, dpos, p_g, H, q_F, p_q]
+    integrated by an exponential integrator that is exact for the flexible modes' linear part, so
+    no RK4 stability limit applies (no ``check_stability``).  Split z' = L z + N(z, t) with L the
+    block-diagonal linear oscillator of each flexible mode j on (q_j, p_j),
+    L_j = [[0, 1], [-k_j, -c_j]] (k_j = omega_j^2, c_j = 2 zeta_j omega_j, Eq. 35's H for one mode;
+    q' = p_q - D(q)^T omega and p_q' = dT/dq - K_q q - C_q qdot + Q), L = 0 on the 12 frame and
+    momentum components, and N = z' - L z the rest: frame kinematics, gyroscopic / centrifugal /
+    Coriolis coupling (-D^T omega, dT/dq + C_q D^T omega), the loads and the geometric stiffness.
+    Variation of constants, z(t_n + h) = e^{hL} z_n + int_0^h e^{(h - s)L} N(z(t_n + s)) ds, with
+    the integrand's N interpolated from four stage values gives the Cox & Matthews (2002) ETD-RK4
+    step (phi_1(Z) = Z^{-1}(e^Z - I), phi_2(Z) = Z^{-1}(phi_1 - I), phi_3(Z) = Z^{-1}(phi_2 - I/2)):
+
+        a = e^{hL/2} z_n + (h/2) phi_1(hL/2) N(z_n, t_n)
+        b = e^{hL/2} z_n + (h/2) phi_1(hL/2) N(a, t_n + h/2)
+        c = e^{hL/2} a + (h/2) phi_1(hL/2) (2 N(b, t_n + h/2) - N(z_n, t_n))
+        z_{n+1} = e^{hL} z_n + h [(phi_1 - 3 phi_2 + 4 phi_3) N_n + (2 phi_2 - 4 phi_3)(N_a + N_b)
+                                   + (4 phi_3 - phi_2) N_c],   phi_k = phi_k(hL).
+
+    Classical order 4; on the L = 0 components it is classical RK4 itself (phi_k(0) = 1/k!), so the
+    frame, momentum and the linear / angular momentum balance are integrated exactly as by the
+    consistent scheme.  A constant N (e.g. the held modal load of the FMU on a body that does not
+    rotate) is integrated exactly: the weights sum to phi_1(hL), the exact affine part.  The 2x2
+    per-mode matrices are computed once per dt (:func:`exponential_coefficients`), so a step still
+    costs O(nf^2).  Accuracy then depends on how fast N varies (the rigid motion, |omega| h, and the
+    load history), not on omega_max h.
 
 State (:class:`ReframeState`): time, the frame point (the dummy body's centre of mass, global), the
 rotation (body -> global), and the modal state eta = [q_R, q_F, qdot_R, qdot_F] in the current frame
@@ -73,9 +100,10 @@ __all__ = [
     "BaselineResult",
     "quaternion_from_rotation",
     "Snapshot",
+    "exponential_coefficients",
 ]
 
-SCHEMES = ("consistent", "paper")
+SCHEMES = ("consistent", "paper", "exponential")
 #: RK4 is stable for an undamped oscillator while dt * omega <= 2*sqrt(2) = 2.83; refuse above 2.8.
 RK4_STABILITY_LIMIT = 2.8
 _ORTHO_RTOL = 1e-8       # Psi^T M Psi = I within this (relative to 1)
@@ -136,6 +164,52 @@ def _check_dt(dt):
     if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not math.isfinite(dt) or dt <= 0.0:
         raise ParameterError("dt", f"{dt!r}", "finite time step > 0 (s)")
     return float(dt)
+
+
+def exponential_coefficients(stiffness, damping, dt: float) -> np.ndarray:
+    """Per-mode 2x2 matrices of the exponential scheme's ETD-RK4 step (module docstring), shape
+    (nf, 6, 2, 2): E1 = e^{hL_j}, E2 = e^{hL_j/2}, A2 = (h/2) phi_1(hL_j/2), B1 = h (phi_1 - 3 phi_2 +
+    4 phi_3), B2 = h (2 phi_2 - 4 phi_3), B4 = h (4 phi_3 - phi_2) (phi_k at hL_j) for
+    L_j = [[0, 1], [-k_j, -c_j]] acting on (q_j, p_j).
+
+    phi_k(Z) are the blocks of the exponential of the augmented matrix [[Z, I, 0, 0], [0, 0, I, 0],
+    [0, 0, 0, I], [0, 0, 0, 0]] (Saad 1992; no cancellation for small hL), evaluated in the balanced
+    coordinates (omega_j q_j, p_j) where Z is a scaled rotation-plus-damping and then scaled back.
+    """
+    from scipy.linalg import expm
+
+    k = np.asarray(stiffness, dtype=float)
+    c = np.asarray(damping, dtype=float)
+    nf = k.size
+    out = np.zeros((nf, 6, 2, 2))
+    if nf == 0:
+        return out
+    w = np.sqrt(np.maximum(k, 0.0))
+    s = np.where(w > 0.0, w, 1.0)                 # balancing scale omega_j (1 for a zero-stiffness mode)
+    Lhat = np.zeros((nf, 2, 2))                   # T L T^-1 with T = diag(s, 1)
+    Lhat[:, 0, 1] = s
+    Lhat[:, 1, 0] = -k / s
+    Lhat[:, 1, 1] = -c
+    phis = {}
+    for frac in (1.0, 0.5):
+        W = np.zeros((nf, 8, 8))
+        W[:, 0:2, 0:2] = frac * dt * Lhat
+        for b in range(3):
+            W[:, 2 * b:2 * b + 2, 2 * b + 2:2 * b + 4] = np.eye(2)
+        X = expm(W)
+        phis[frac] = [X[:, 0:2, 2 * b:2 * b + 2] for b in range(4)]     # e^Z, phi_1, phi_2, phi_3
+    e1, p1, p2, p3 = phis[1.0]
+    h = dt
+    mats = [e1, phis[0.5][0], 0.5 * h * phis[0.5][1], h * (p1 - 3.0 * p2 + 4.0 * p3), h * (2.0 * p2 - 4.0 * p3),
+            h * (4.0 * p3 - p2)]
+    for m, X in enumerate(mats):                  # back to (q, p): T^-1 X T
+        out[:, m, 0, 0] = X[:, 0, 0]
+        out[:, m, 0, 1] = X[:, 0, 1] / s
+        out[:, m, 1, 0] = X[:, 1, 0] * s
+        out[:, m, 1, 1] = X[:, 1, 1]
+    if not np.all(np.isfinite(out)):
+        raise ParameterError("dt", f"{dt!r} s gives non-finite exponential propagators", "a finite time step > 0 (s)")
+    return out
 
 
 # --------------------------------------------------------------------------- loads
@@ -459,25 +533,71 @@ class ReframeIntegrator:
                         else R = the node nearest the centre of mass, P = the node farthest from R,
                         Q = the node farthest from the line RP.  Used by Eqs. (36)-(37) of the paper
                         scheme; checked (non-colinear) for both schemes.
-    scheme:             "consistent" (default) or "paper".
+    scheme:             "consistent" (default), "exponential" (the consistent equations, exact in
+                        the flexible modes' linear part: no RK4 stability limit) or "paper".
     deformed_load_arm:  True: the moment of a load on the rigid-body motion uses the deformed position
                         of its point (adds u_F x f).  False: the undeformed lever arm (paper's
                         linear model).
+    geometric_stiffness: None, or G of shape (3, 3, nf, nf) (body frame, flexible modal coordinates,
+                        N m / rad^2 per unit modal coordinate, i.e. kg-normalised like the modes):
+                        the flexible momentum rate gets -(sum_ab X_ab G[a, b]) q_F with
+                        X = skew(omega) @ skew(omega) at every stage (e.g. centrifugal stiffening).
+                        Not with scheme="paper".
     """
 
     def __init__(self, structure: Structure, basis, *, reference_points=None, scheme: str = "consistent",
-                 deformed_load_arm: bool = True):
+                 deformed_load_arm: bool = True, geometric_stiffness=None):
         if scheme not in SCHEMES:
-            raise ParameterError("scheme", repr(scheme), '"consistent" or "paper"')
+            raise ParameterError("scheme", repr(scheme), " | ".join(f'"{x}"' for x in SCHEMES))
         self.scheme = scheme
         self.deformed_load_arm = bool(deformed_load_arm)
         self.data = _ModelData(structure, basis)
+        self._setup_geometric_stiffness(geometric_stiffness)
         self._setup_reference_points(reference_points)
-        self._setup_consistent() if scheme == "consistent" else self._setup_paper()
+        self._setup_consistent() if scheme != "paper" else self._setup_paper()
         self._setup_max_displacement()
+        self._ex_cache = {}
         self.state = self.initial_state()
 
+    @property
+    def stability_limited(self) -> bool:
+        """True if the step is limited by RK4 stability (dt * omega_max <= RK4_STABILITY_LIMIT)."""
+        return self.scheme != "exponential"
+
     # ---------------------------------------------------------------- setup
+    def _setup_geometric_stiffness(self, G):
+        nf = self.data.nf
+        self.geometric_stiffness = None
+        self._Gk = np.zeros(0)
+        if G is None:
+            return
+        if self.scheme == "paper":
+            raise ParameterError("geometric_stiffness", "not supported by scheme 'paper'",
+                                 'None, or scheme "consistent" / "exponential"')
+        try:
+            Ga = np.array(G, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError("geometric_stiffness", f"{type(G).__name__} is not numeric",
+                                 f"finite array of shape (3, 3, {nf}, {nf})") from None
+        if Ga.shape != (3, 3, nf, nf):
+            raise ParameterError("geometric_stiffness", f"shape {Ga.shape}",
+                                 f"finite array of shape (3, 3, {nf}, {nf}) (body frame, flexible modes)")
+        if not np.all(np.isfinite(Ga)):
+            raise ParameterError("geometric_stiffness", "contains NaN or Inf",
+                                 f"finite array of shape (3, 3, {nf}, {nf})")
+        self.geometric_stiffness = Ga
+        self._Gk = np.ascontiguousarray(Ga.reshape(-1))
+
+    def _exponential(self, dt: float) -> np.ndarray:
+        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt)."""
+        EX = self._ex_cache.get(dt)
+        if EX is None:
+            EX = np.ascontiguousarray(exponential_coefficients(self._kF, self._cF, dt).reshape(-1))
+            if len(self._ex_cache) >= 8:
+                self._ex_cache.clear()
+            self._ex_cache[dt] = EX
+        return EX
+
     def _setup_reference_points(self, reference_points):
         d = self.data
         if reference_points is None:
@@ -668,13 +788,14 @@ class ReframeIntegrator:
 
     def advance_steps(self, state: ReframeState, dt: float, n_steps: int, load=None) -> ReframeState:
         """``n_steps`` steps of dt from ``state`` (not modified): the same as as many :meth:`advance` calls
-        (same numbers), in one call of the step kernel for the consistent scheme."""
+        (same numbers), in one call of the step kernel for the consistent and exponential schemes."""
         dt = _check_dt(dt)
         if isinstance(n_steps, bool) or not isinstance(n_steps, numbers.Integral) or n_steps < 1:
             raise ParameterError("n_steps", f"{n_steps!r}", "integer >= 1")
-        self.data.check_stability(dt)
+        if self.stability_limited:
+            self.data.check_stability(dt)
         loads = load if isinstance(load, _Prepared) else _Prepared(self.data.resolve_loads(load))
-        if self.scheme == "consistent":
+        if self.scheme != "paper":
             return self._consistent_steps(state, dt, int(n_steps), loads)
         s = state
         for _ in range(int(n_steps)):
@@ -707,12 +828,17 @@ class ReframeIntegrator:
         LP = self._kernel_loads(loads)
         SV, held = loads.stage_values(s.t, dt, n)
         y0 = np.concatenate((s.position, np.ravel(s.rotation), s.eta)).astype(float, copy=False)
-        y, t, done, status = kern.consistent_steps(self._P, LP, self.data.nf, self.deformed_load_arm, SV, held,
-                                                   float(s.t), dt, n, y0)
+        if self.scheme == "consistent" and self._Gk.size == 0:
+            y, t, done, status = kern.consistent_steps(self._P, LP, self.data.nf, self.deformed_load_arm, SV, held,
+                                                       float(s.t), dt, n, y0)
+        else:
+            EX = self._exponential(dt) if self.scheme == "exponential" else np.zeros(0)
+            y, t, done, status = kern.reframe_steps(self._P, LP, self._Gk, EX, self.data.nf, self.deformed_load_arm,
+                                                    SV, held, float(s.t), dt, n, y0)
         if status == 1:
             loads.check((t, t + 0.5 * dt, t + dt))         # raises the history's ParameterError
         if status:
-            raise FlexfmuError(f"reframe: non-finite state at t = {t:.6g} s (scheme 'consistent')")
+            raise FlexfmuError(f"reframe: non-finite state at t = {t:.6g} s (scheme {self.scheme!r})")
         return ReframeState(t=t, position=y[0:3], rotation=y[3:12].reshape(3, 3), eta=y[12:])
 
     def _velocities(self, state):
@@ -739,7 +865,7 @@ class ReframeIntegrator:
         quaternion (4), omega (3), alpha (3), com position (3), com velocity (3), q (nf), qdot (nf),
         max elastic displacement (1), then per point position, velocity, acceleration, and their rigid
         parts (6 x 3).  :meth:`snapshot` wraps it; the ReframeBody FMU reads it directly."""
-        if self.scheme != "consistent":
+        if self.scheme == "paper":
             snap = self.snapshot(state, loads, points)
             return np.concatenate([snap.frame_origin, snap.frame_origin_velocity, snap.quaternion, snap.omega,
                                    snap.alpha, snap.com_position, snap.com_velocity, snap.q, snap.qd,
@@ -752,9 +878,12 @@ class ReframeIntegrator:
         if not held and not np.all(np.isfinite(SV)):
             loads.check((state.t,))
         y = np.concatenate((state.position, np.ravel(state.rotation), state.eta)).astype(float, copy=False)
-        return _kernels().consistent_outputs(self._P, self._kernel_loads(loads), d.nf, self.deformed_load_arm,
-                                             SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn,
-                                             *self._umax)
+        kern = _kernels()
+        if self._Gk.size:
+            return kern.reframe_outputs(self._P, self._kernel_loads(loads), self._Gk, d.nf, self.deformed_load_arm,
+                                        SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *self._umax)
+        return kern.consistent_outputs(self._P, self._kernel_loads(loads), d.nf, self.deformed_load_arm,
+                                       SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *self._umax)
 
     # ---------------------------------------------------------------- paper scheme
     def _paper_fq(self, t, A, q, loads):
@@ -894,7 +1023,7 @@ class ReframeIntegrator:
         d = self.data
         nm = d.n_modes
         R = s.rotation
-        if self.scheme == "consistent":
+        if self.scheme != "paper":
             v, w, q, qd = self._velocities(s)
             u = d.Phi @ q
             wb = d.Phi @ qd
@@ -952,7 +1081,8 @@ class ReframeIntegrator:
             raise ParameterError("t_end", f"{t_end!r}", f"finite, > start time {s.t}")
         if not (isinstance(every, numbers.Integral) and every >= 1):
             raise ParameterError("every", f"{every!r}", "integer >= 1")
-        self.data.check_stability(dt)
+        if self.stability_limited:
+            self.data.check_stability(dt)
         loads = self.prepare_loads(load)
         pts = self.point_indices(points)
         n_steps = int(round((t_end - s.t) / dt))
@@ -980,7 +1110,7 @@ class ReframeIntegrator:
 
     def snapshot(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> "Snapshot":
         """All outputs of one state (the loads enter the accelerations)."""
-        if self.scheme == "consistent":
+        if self.scheme != "paper":
             vec = self.output_vector(state, loads, points)
             nf = self.data.nf
             kin = vec[23 + 2 * nf:].reshape(len(points), 6, 3)

@@ -1,19 +1,43 @@
 """ReframeBody: the reframe integrator with named inputs and outputs (what ReframeBody.fmu wraps).
 
 Inputs are held over each communication step (zero-order hold); the step is split into equal
-internal RK4 steps no longer than ``internal_step`` (0: automatic, 90 % of the RK4 stability
-limit 2.8 / omega_max of the highest retained flexible mode).
+internal steps (one kernel call).  ``internal_step`` > 0 is the longest internal step; 0 chooses:
+
+* schemes "consistent" and "paper" (RK4, stable while dt omega_max <= 2.8): 90 % of the stability
+  limit 2.8 / omega_max of the highest retained flexible mode, so a communication step beyond the
+  limit is sub-stepped; an explicit ``internal_step`` beyond the limit is refused;
+* scheme "exponential" (exact for the modes' linear part, no stability limit): by accuracy.  With
+  the inputs held, the only thing that varies inside a communication step is the rigid motion, so the
+  step is split until the rotation per internal step, |omega| h + |alpha| h^2 / 2 (at the start of the
+  communication step, with the new inputs), is at most ``0.5 tolerance^(1/4)`` rad (RK4's error in the
+  attitude is ~ (|omega| h)^4 per step): one internal step per communication step for a body that
+  does not spin fast.
+
+The messages list collects what was chosen and why (model size with ``n_flexible_modes = -1``, the
+internal step and its reason, logged once and again when it changes); the FMU logs them (status OK).
+
+``n_flexible_modes = -1`` chooses the model: every flexible mode up to ``f_max`` (Hz), then a static
+correction: if the static deflection of the load point under a unit force (and, on 6-DOF models, a
+unit moment) from these modes differs from the full model's (inertia relief, one sparse solve) by more
+than ``tolerance`` (relative, worst direction), the residual flexibility of the load point is added
+as up to 6 extra Ritz vectors (mode-acceleration / residual-flexibility method: the exact static
+deflections minus their modal part, M-orthonormalised and K-diagonalised), so the static deflection
+under loads at the load point is exact.  They are stiff (Rayleigh frequencies well above f_max): pair
+them with scheme "exponential".
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
+import scipy.linalg as sla
+import scipy.sparse.linalg as spla
 
 from flexfmu.errors import ParameterError, require
-from flexfmu.modal_basis import modal_basis
+from flexfmu.modal_basis import N_RIGID, ModalBasis, modal_basis
 from flexfmu.models import load_model
 from flexfmu.reframe import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, ReframeIntegrator, ReframeState
 
@@ -26,6 +50,8 @@ OUTPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES
                 + tuple(f"out_vel_{a}" for a in AXES) + tuple(f"out_acc_{a}" for a in AXES)
                 + tuple(f"out_acc_rigid_{a}" for a in AXES) + ("max_elastic_displacement",))
 _AUTO_STEP_FRACTION = 0.9   # of the RK4 stability limit, for internal_step = 0
+MAX_AUTO_MODES = 200        # n_flexible_modes = -1 computes at most this many modes
+_SHIFT = 1e-8               # K + shift * omega_1^2 M for the static solve (relative error ~ shift)
 
 
 def output_values(outputs) -> np.ndarray:
@@ -45,6 +71,8 @@ class ReframeBodyConfig:
     model: str = "paper_plate"
     scheme: str = "consistent"
     n_flexible_modes: int = 10
+    f_max: float = 100.0            # Hz, for n_flexible_modes = -1
+    tolerance: float = 1e-3         # static-correction and exponential-step tolerance
     damping_ratio: float = 0.05
     internal_step: float = 0.0
     load_point_x: float = -0.5      # the paper's load point, midway between P5 and P8
@@ -62,17 +90,138 @@ class ReframeBodyConfig:
     omega0_3: float = 0.0
 
 
+def _select(basis: ModalBasis, n: int) -> ModalBasis:
+    """The rigid modes and the first n flexible modes of a basis."""
+    cols = list(range(N_RIGID + n))
+    return dataclasses.replace(basis, shapes=basis.shapes[:, cols], frequencies_hz=basis.frequencies_hz[:n],
+                               stiffness=basis.stiffness[cols], damping=basis.damping[cols],
+                               damping_ratio=basis.damping_ratio[:n])
+
+
+def load_point_rows(structure, node: int) -> np.ndarray:
+    """DOF rows of a node's translations (and rotations on 6-DOF models)."""
+    dpn = int(structure.dofs_per_node)
+    return node * dpn + np.arange(6 if dpn == 6 else 3)
+
+
+def static_deflections(structure, basis: ModalBasis, rows) -> np.ndarray:
+    """Exact elastic static deflections (n_dof, len(rows)) of the free-free model under a unit load on each
+    DOF row, with inertia relief (the load minus the inertia forces of the rigid acceleration it causes),
+    M-orthogonal to the rigid modes: one sparse factorisation of K + s M (s = 1e-8 omega_1^2; relative
+    error ~1e-8 of the first mode's share) and one refinement step."""
+    M, K = structure.M.tocsc(), structure.K.tocsc()
+    PR = basis.shapes[:, :N_RIGID]
+    lam1 = float(basis.stiffness[N_RIGID]) if basis.n_flexible else float(np.max(K.diagonal() / M.diagonal()))
+    lu = spla.splu((K + _SHIFT * lam1 * M).tocsc())
+    F = np.zeros((structure.n_dof, len(rows)))
+    F[np.asarray(rows), np.arange(len(rows))] = 1.0
+    F -= M @ (PR @ (PR.T @ F))                              # inertia relief: PR^T F = 0 now
+    U = lu.solve(F)
+    U += lu.solve(F - K @ U - _SHIFT * lam1 * (M @ U))      # iterative refinement
+    return U - PR @ (PR.T @ (M @ U))
+
+
+def _static_error(C_full, C_modal, n_trans) -> float:
+    """Relative spectral-norm error of the load point's compliance, worst of the force and moment blocks."""
+    errs = []
+    for sl in (slice(0, n_trans), slice(n_trans, C_full.shape[0])):
+        full = C_full[sl, sl]
+        if full.size:
+            errs.append(np.linalg.norm(C_modal[sl, sl] - full, 2) / max(np.linalg.norm(full, 2), 1e-300))
+    return float(max(errs))
+
+
+def modal_compliance(basis: ModalBasis, rows) -> np.ndarray:
+    """sum_j phi_j(rows) phi_j(rows)^T / k_j over the flexible columns: the basis' static compliance."""
+    Phi = basis.shapes[np.asarray(rows), N_RIGID:]
+    return (Phi / basis.stiffness[N_RIGID:]) @ Phi.T
+
+
+def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, load_node: int):
+    """(basis, messages) for ``n_flexible_modes = -1``: the flexible modes up to f_max (Hz) plus, if the
+    load point's static deflection from them is more than ``tolerance`` off the full model's, the residual
+    flexibility vectors of the load point (module docstring)."""
+    n_max = min(structure.n_dof - N_RIGID, MAX_AUTO_MODES)
+    n_try = min(8, n_max)
+    while True:
+        full = modal_basis(structure, n_try, damping_ratio)
+        if n_try >= n_max or (n_try and full.frequencies_hz[-1] > f_max):
+            break
+        n_try = min(2 * n_try, n_max)
+    freqs = full.frequencies_hz
+    n_keep = int(np.count_nonzero(freqs <= f_max))
+    basis = _select(full, n_keep)
+    shown = ", ".join(f"{f:.4g}" for f in freqs[:n_keep][:6]) + (", ..." if n_keep > 6 else "")
+    msgs = [f"n_flexible_modes = -1: kept the {n_keep} flexible mode(s) up to f_max = {f_max:g} Hz"
+            + (f" ({shown} Hz)" if n_keep else "")
+            + (f"; the next is at {freqs[n_keep]:.4g} Hz" if n_keep < freqs.size else
+               f"; limit of {MAX_AUTO_MODES} modes reached" if n_keep == MAX_AUTO_MODES else "")]
+    rows = load_point_rows(structure, load_node)
+    U = static_deflections(structure, full, rows)
+    C_full = U[rows]
+    C_full = 0.5 * (C_full + C_full.T)
+    err = _static_error(C_full, modal_compliance(basis, rows), 3)
+    if err <= tolerance:
+        msgs.append(f"static deflection of the load point (node {load_node}) from these modes is within "
+                    f"{err:.2g} of the full model's (tolerance {tolerance:g}): no static correction")
+        return basis, msgs
+    M, K = structure.M, structure.K
+    Phi = basis.shapes
+    R = U.copy()
+    for _ in range(2):                                   # M-orthogonal to every retained mode ("twice is enough")
+        R -= Phi @ (Phi.T @ (M @ R))
+    Mr = R.T @ (M @ R)
+    mu, V = np.linalg.eigh(0.5 * (Mr + Mr.T))
+    keep = mu > 1e-12 * mu.max()
+    W = R @ (V[:, keep] / np.sqrt(mu[keep]))             # M-orthonormal residual vectors
+    Kw = W.T @ (K @ W)
+    lam, Y = sla.eigh(0.5 * (Kw + Kw.T))
+    W = W @ Y
+    zeta = float(basis.damping_ratio[0]) if basis.n_flexible else float(np.atleast_1d(damping_ratio)[0])
+    wr = np.sqrt(lam)
+    corrected = dataclasses.replace(
+        basis, shapes=np.hstack([basis.shapes, W]),
+        frequencies_hz=np.concatenate([basis.frequencies_hz, wr / (2 * np.pi)]),
+        stiffness=np.concatenate([basis.stiffness, lam]), damping=np.concatenate([basis.damping, 2 * zeta * wr]),
+        damping_ratio=np.concatenate([basis.damping_ratio, np.full(lam.size, zeta)]), method=basis.method + "+static")
+    err_after = _static_error(C_full, modal_compliance(corrected, rows), 3)
+    msgs.append(f"static deflection of the load point (node {load_node}) from these modes is {err:.2g} off the full "
+                f"model's (> tolerance {tolerance:g}): added {lam.size} residual-flexibility vectors (static "
+                f"correction; Rayleigh frequencies {', '.join(f'{f:.4g}' for f in wr / (2 * np.pi))} Hz); static "
+                f"deflection error now {err_after:.1g}; {n_keep + lam.size} flexible coordinates")
+    return corrected, msgs
+
+
 @lru_cache(maxsize=4)
-def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme: str) -> ReframeIntegrator:
-    """Model, modes and integrator set-up, shared by instances (``advance`` does not touch its state)."""
+def _structure(model: str):
+    return load_model(model)
+
+
+@lru_cache(maxsize=4)
+def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme: str, f_max=None, tolerance=None,
+                load_node=None):
+    """(integrator, messages): model, modes and integrator set-up, shared by instances (``advance`` does not
+    touch its state).  f_max, tolerance, load_node only for n_flexible_modes = -1 (None otherwise)."""
     require(scheme in SCHEMES, "scheme", f"got {scheme!r}", " | ".join(SCHEMES))
     require(np.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0, "damping_ratio",
             f"got {damping_ratio!r}", "0 <= damping_ratio < 1")
-    structure = load_model(model)
-    require(isinstance(n_flexible_modes, (int, np.integer)) and 0 <= n_flexible_modes <= structure.n_dof - 6,
-            "n_flexible_modes", f"got {n_flexible_modes!r}", f"0 .. {structure.n_dof - 6}")
-    basis = modal_basis(structure, int(n_flexible_modes), damping_ratio)
-    return ReframeIntegrator(structure, basis, scheme=scheme)
+    structure = _structure(model)
+    require(isinstance(n_flexible_modes, (int, np.integer)) and -1 <= n_flexible_modes <= structure.n_dof - 6,
+            "n_flexible_modes", f"got {n_flexible_modes!r}",
+            f"-1 (choose from f_max, tolerance) or 0 .. {structure.n_dof - 6}")
+    basis, msgs = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node)
+    return ReframeIntegrator(structure, basis, scheme=scheme), msgs
+
+
+@lru_cache(maxsize=4)
+def _basis(model: str, n_flexible_modes: int, damping_ratio: float, f_max, tolerance, load_node):
+    """(basis, messages), shared by the schemes."""
+    structure = _structure(model)
+    if n_flexible_modes == -1:
+        basis, msgs = auto_basis(structure, f_max, tolerance, damping_ratio, load_node)
+    else:
+        basis, msgs = modal_basis(structure, n_flexible_modes, damping_ratio), []
+    return basis, tuple(msgs)
 
 
 class ReframeBodySimulator:
@@ -83,13 +232,36 @@ class ReframeBodySimulator:
         for name in ("load_point_x", "load_point_y", "load_point_z", "output_point_x", "output_point_y",
                      "output_point_z", "v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3"):
             require(math.isfinite(getattr(c, name)), name, f"got {getattr(c, name)!r}", "a finite number")
-        self.integrator = integ = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme)
-        limit = RK4_STABILITY_LIMIT / integ.data.omega_max if integ.data.omega_max > 0 else math.inf
+        require(math.isfinite(c.f_max) and c.f_max > 0.0, "f_max", f"got {c.f_max!r}", "> 0 Hz")
+        require(math.isfinite(c.tolerance) and 0.0 < c.tolerance < 1.0, "tolerance", f"got {c.tolerance!r}",
+                "0 < tolerance < 1 (relative)")
+        self.messages: list[str] = []
+        auto = isinstance(c.n_flexible_modes, (int, np.integer)) and c.n_flexible_modes == -1
+        load_node = None
+        if auto:
+            structure = _structure(c.model)
+            load_node = int(np.argmin(np.linalg.norm(structure.nodes - np.array(
+                [c.load_point_x, c.load_point_y, c.load_point_z]), axis=1)))
+        self.integrator, msgs = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme,
+                                            c.f_max if auto else None, c.tolerance if auto else None, load_node)
+        integ = self.integrator
+        self.messages.extend(msgs)
+        omega_max = integ.data.omega_max
+        self.stability_limit = RK4_STABILITY_LIMIT / omega_max if omega_max > 0 else math.inf
+        limit = self.stability_limit if integ.stability_limited else math.inf
         require(math.isfinite(c.internal_step) and 0.0 <= c.internal_step <= limit, "internal_step",
-                f"{c.internal_step!r} s exceeds the RK4 stability limit 2.8 / omega_max"
+                f"{c.internal_step!r} s exceeds the RK4 stability limit 2.8 / omega_max = {limit:.6g} s "
+                f"(highest flexible mode {omega_max / (2 * math.pi):.6g} Hz)"
                 if c.internal_step > limit else f"got {c.internal_step!r}",
-                f"0 (automatic) .. {limit:.6g} s for {c.n_flexible_modes} flexible modes")
-        self.max_internal_step = c.internal_step if c.internal_step > 0 else _AUTO_STEP_FRACTION * limit
+                f"0 (automatic) .. {limit:.6g} s for {integ.data.nf} flexible coordinates, or scheme exponential")
+        if c.internal_step > 0:
+            self.max_internal_step = c.internal_step
+        elif integ.stability_limited:
+            self.max_internal_step = _AUTO_STEP_FRACTION * limit
+        else:
+            self.max_internal_step = math.inf            # exponential: chosen per step by accuracy
+        self._theta_max = 0.5 * c.tolerance ** 0.25       # rad per internal step (exponential, automatic)
+        self._last_split = None
         self._force = np.zeros(3)
         self._moment = np.zeros(3)
         rotational = integ.data.structure.dofs_per_node == 6
@@ -104,6 +276,11 @@ class ReframeBodySimulator:
         self._columns = np.r_[0:22, o:o + 9, o + 15:o + 18, 22 + 2 * nf]
         self.state = integ.initial_state(v0=(c.v0_x, c.v0_y, c.v0_z), omega0=(c.omega0_1, c.omega0_2, c.omega0_3))
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
+        self._last_rates = None      # (state, omega, alpha, force, moment) of the last output_vector (exponential)
+        if not integ.stability_limited:
+            # |d alpha| <= (|arm| |dF| + |dM|) / J_min: the change of alpha when the held inputs change
+            self._arm = float(np.linalg.norm(integ.data.Xc[self._loads.items[0].node]))
+            self._J_min = float(np.linalg.eigvalsh(integ._J0)[0])
 
     @property
     def time(self) -> float:
@@ -111,7 +288,52 @@ class ReframeBodySimulator:
 
     def internal_steps(self, step_size: float) -> int:
         """Number of equal internal steps a communication step of step_size (s) is split into."""
-        return max(1, math.ceil(step_size / self.max_internal_step * (1 - 1e-12)))
+        n, _ = self._split(step_size)
+        return n
+
+    def _split(self, step_size: float):
+        """(number of internal steps, reason) for a communication step of step_size (s)."""
+        c = self.config
+        n = max(1, math.ceil(step_size / self.max_internal_step * (1 - 1e-12)))
+        wmax = self.integrator.data.omega_max
+        if c.internal_step > 0:
+            why = f"internal_step = {c.internal_step:g} s requested"
+            if self.integrator.stability_limited:
+                why += f" (RK4 stability limit {self.stability_limit:.4g} s)"
+        elif self.integrator.stability_limited:
+            if n == 1:
+                why = (f"dt * omega_max = {step_size * wmax:.3g} <= {RK4_STABILITY_LIMIT}: within the RK4 stability "
+                       "limit")
+            else:
+                why = (f"dt * omega_max = {step_size:g} s * {wmax:.6g} rad/s = {step_size * wmax:.3g} > "
+                       f"{RK4_STABILITY_LIMIT}: RK4 would diverge on the highest flexible mode "
+                       f"({wmax / (2 * math.pi):.6g} Hz); sub-stepped at 90 % of the limit")
+        else:
+            w, a = self._rates()
+            theta = w * step_size + 0.5 * a * step_size**2
+            n = max(1, math.ceil(theta / self._theta_max * (1 - 1e-12)))
+            if n > 1:                                      # then the rotation per internal step is <= theta_max
+                h = step_size / n
+                while w * h + 0.5 * a * h * h > self._theta_max:
+                    n += 1
+                    h = step_size / n
+            why = (f"scheme exponential: no stability limit (dt * omega_max = {step_size / n * wmax:.3g}); by "
+                   f"accuracy, rotation per internal step {theta / n:.3g} rad <= 0.5 tolerance^(1/4) = "
+                   f"{self._theta_max:.3g} rad (|omega| = {w:.4g} rad/s, |alpha| ~ {a:.4g} rad/s^2)")
+        return n, why
+
+    def _rates(self):
+        """|omega| and |alpha| at the start of a communication step with the new inputs: from the outputs of
+        the current state if output_vector computed them (the FMU does, after every step), alpha corrected
+        by a bound of the input change; else from the output kernel."""
+        last = self._last_rates
+        if last is not None and last[0] is self.state:
+            _, w, a, f, m = last
+            da = (self._arm * float(np.linalg.norm(self._force - f)) + float(np.linalg.norm(self._moment - m))) \
+                / self._J_min
+            return w, a + da
+        out = self.integrator.output_vector(self.state, self._loads, self._points)
+        return float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16]))
 
     def set_inputs(self, **inputs: float) -> None:
         for name, value in inputs.items():
@@ -139,16 +361,24 @@ class ReframeBodySimulator:
         self._hold(np.array(vals[0:3]), np.array(vals[3:6]))
 
     def step(self, step_size: float) -> None:
-        """Equal internal RK4 steps over step_size (s) with the inputs held, in one kernel call."""
+        """Equal internal steps over step_size (s) with the inputs held, in one kernel call (see _split)."""
         require(math.isfinite(step_size) and step_size > 0, "step_size", f"got {step_size!r}", "> 0 s")
-        n = self.internal_steps(step_size)
+        n, why = self._split(step_size)
+        if n != self._last_split:                         # log the decision once, and when it changes
+            self.messages.append(f"t = {self.state.t:.6g} s: communication step {step_size:g} s in {n} internal "
+                                 f"step(s) of {step_size / n:.4g} s: {why}")
+            self._last_split = n
         self.state = self.integrator.advance_steps(self.state, step_size / n, n, self._loads)
 
     def output_vector(self) -> np.ndarray:
         """All outputs (OUTPUT_NAMES order) of the current state."""
         integ = self.integrator
-        if integ.scheme == "consistent":
-            return integ.output_vector(self.state, self._loads, self._points)[self._columns]
+        if integ.scheme != "paper":
+            out = integ.output_vector(self.state, self._loads, self._points)
+            if not integ.stability_limited:
+                self._last_rates = (self.state, float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16])),
+                                    self._force, self._moment)
+            return out[self._columns]
         return output_values(integ.snapshot(self.state, self._loads, self._points))
 
     def outputs(self) -> dict[str, float]:
@@ -177,10 +407,17 @@ def _info(names, unit, text):
 #: name -> (unit, description) of every FMU variable.
 VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "model": ("", "paper_plate | beam:<scene> (free-free bent rod) | path to a .npz structure file"),
-    "scheme": ("", "consistent (default) | paper (the printed scheme, first order)"),
-    "n_flexible_modes": ("", "retained flexible modes; 0 = a rigid body"),
+    "scheme": ("", "consistent (default) | exponential (exact in the modes' linear part, no RK4 stability limit) | "
+                   "paper (the printed scheme, first order)"),
+    "n_flexible_modes": ("", "retained flexible modes; 0 = a rigid body; -1 = choose: the modes up to f_max plus a "
+                             "static correction of the load point if needed (tolerance)"),
+    "f_max": ("Hz", "n_flexible_modes = -1: keep every flexible mode up to this frequency"),
+    "tolerance": ("", "n_flexible_modes = -1: allowed relative static-deflection error of the load point before "
+                      "residual-flexibility vectors are added; scheme exponential with internal_step = 0: "
+                      "rotation per internal step <= 0.5 tolerance^(1/4) rad"),
     "damping_ratio": ("", "modal damping ratio of every flexible mode, 0 <= zeta < 1"),
-    "internal_step": ("s", "longest internal RK4 step; 0 = automatic (90% of the stability limit)"),
+    "internal_step": ("s", "longest internal step; 0 = automatic (RK4 schemes: 90% of the stability limit, "
+                           "sub-stepping a longer communication step; exponential: by accuracy)"),
     **_info(("load_point_x", "load_point_y", "load_point_z"), "m", "load point, undeformed body coordinates"),
     **_info(("output_point_x", "output_point_y", "output_point_z"), "m", "output point, undeformed body coordinates"),
     "force_follows_body": ("", "false: F, M in the global frame; true: in the body frame"),

@@ -1,0 +1,120 @@
+"""ReframeBody.fmu choosing for the user (issue 5): the model size (n_flexible_modes = -1 with f_max and
+tolerance), the internal step (RK4 limit: sub-stepped and logged) and the exponential scheme; each decision
+is logged with status OK and the numbers behind it."""
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from flexfmu.models import load_model
+from flexfmu.reframe import PointLoad, ReframeIntegrator
+from flexfmu.reframe_body_sim import (ReframeBodyConfig, ReframeBodySimulator, load_point_rows, modal_compliance)
+
+BEAM = "beam:spatial_double_L"            # free-free bent rod; flexible modes 148, 266, 280, 980, ... Hz
+TIP = (0.14, 0.15, 0.16)                  # its free end (node 12 with 8 elements per segment: the last node)
+
+
+@pytest.fixture
+def body(fmu_instance):
+    return lambda name="body", **start: fmu_instance("ReframeBody", name, **start)
+
+
+def _ok_messages(inst):
+    return [m for status, _, m in inst.log if status == 0]
+
+
+def test_auto_model_size_is_logged_with_its_numbers(body):
+    inst = body(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3, scheme="exponential",
+                load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2]).initialize()
+    text = "\n".join(_ok_messages(inst))
+    assert "kept the 3 flexible mode(s) up to f_max = 500 Hz (148.2, 265.8, 280.4 Hz); the next is at 979.9 Hz" in text
+    assert "added 6 residual-flexibility vectors" in text and "> tolerance 0.001" in text, text
+    inst.set(F_x=1.0)
+    inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    assert np.all(np.isfinite(inst.get("omega_1", "omega_2", "omega_3", "max_elastic_displacement")))
+
+
+def test_auto_model_static_deflection_of_the_load_point_is_exact():
+    """The chosen basis (3 modes below 500 Hz + the static correction) against the full model's static
+    compliance at the tip, here from all 72 flexible modes of a dense generalized eigensolution; with
+    tolerance 0.9 (met by the modes alone) no correction is added and the error is what the log says."""
+    structure = load_model(BEAM)
+    tip = int(np.argmin(np.linalg.norm(structure.nodes - np.array(TIP), axis=1)))
+    lam, V = sla.eigh(structure.K.toarray(), structure.M.toarray())
+    flex = np.arange(lam.size) >= 6                                  # ascending: six rigid, then flexible
+    assert abs(lam[5]) <= 1e-6 * lam[6] and abs(math.sqrt(lam[6]) / (2 * math.pi) - 148.18) <= 0.01
+    rows = load_point_rows(structure, tip)
+    C_ref = (V[rows][:, flex] / lam[flex]) @ V[rows][:, flex].T
+    sim = ReframeBodySimulator(ReframeBodyConfig(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3,
+                                                 scheme="exponential", load_point_x=TIP[0], load_point_y=TIP[1],
+                                                 load_point_z=TIP[2]))
+    basis = sim.integrator.data.basis
+    assert basis.n_flexible == 9 and np.all(basis.frequencies_hz[:3] <= 500.0)
+    C = modal_compliance(basis, rows)
+    for block in (slice(0, 3), slice(3, 6)):                         # forces (m/N), moments (rad/(N m))
+        err = np.linalg.norm(C[block, block] - C_ref[block, block], 2) / np.linalg.norm(C_ref[block, block], 2)
+        assert err <= 1e-6, err
+    loose = ReframeBodySimulator(ReframeBodyConfig(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=0.9,
+                                                   load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2]))
+    assert loose.integrator.data.nf == 3 and "no static correction" in loose.messages[1]
+    err3 = max(np.linalg.norm(modal_compliance(loose.integrator.data.basis, rows)[b, b] - C_ref[b, b], 2)
+               / np.linalg.norm(C_ref[b, b], 2) for b in (slice(0, 3), slice(3, 6)))
+    logged = float(loose.messages[1].split(" is within ")[1].split(" ")[0])
+    assert abs(logged - err3) <= 0.05 * err3 and err3 <= 0.9
+
+
+def test_communication_step_beyond_the_rk4_limit_is_substepped_and_logged(body):
+    """Six flexible modes (up to 1315 Hz), consistent scheme, communication step 10 ms: dt omega_max = 83
+    is detected, split into 33 internal steps (90 % of the limit) and logged once; the result equals the
+    library with dt = 10 ms / 33."""
+    inst = body(model=BEAM, n_flexible_modes=6, omega0_3=3.0, load_point_x=TIP[0], load_point_y=TIP[1],
+                load_point_z=TIP[2]).initialize()
+    F = np.array([0.5, -0.2, 1.0])
+    inst.set(F_x=F[0], F_y=F[1], F_z=F[2])
+    for k in range(3):
+        inst.fmu.doStep(currentCommunicationPoint=k * 1e-2, communicationStepSize=1e-2)
+    split = [m for m in _ok_messages(inst) if "internal step" in m]
+    assert len(split) == 1, split
+    assert "in 33 internal step(s)" in split[0] and "> 2.8: RK4 would diverge" in split[0] and "1315" in split[0]
+    structure = load_model(BEAM)
+    integ = ReframeIntegrator(structure, 6, scheme="consistent")
+    integ.set_initial(omega0=(0.0, 0.0, 3.0))
+    res = integ.run(0.03, 1e-2 / 33, PointLoad(TIP, F), points=[(-0.5, -0.025, 0.0)])
+    lib = np.concatenate([res.omega[-1], res.point_position[-1, 0], res.point_acceleration[-1, 0]])
+    fmu = inst.get("omega_1", "omega_2", "omega_3", "out_pos_x", "out_pos_y", "out_pos_z", "out_acc_x", "out_acc_y",
+                   "out_acc_z")
+    np.testing.assert_allclose(fmu, lib, rtol=1e-11, atol=1e-11 * np.abs(lib).max())
+
+
+def test_exponential_scheme_through_the_fmu(body):
+    """Exponential scheme, six flexible modes, 10 ms communication steps (dt omega_max = 83, one internal
+    step each: the body turns by < 0.09 rad per step): equals the library with dt = 10 ms, and agrees with
+    the consistent scheme at dt = 1e-5 s within 1e-6 (relative) while the consistent FMU needs 33 internal
+    steps per communication step."""
+    start = dict(model=BEAM, n_flexible_modes=6, omega0_1=1.0, omega0_3=3.0, load_point_x=TIP[0],
+                 load_point_y=TIP[1], load_point_z=TIP[2])
+    inst = body(scheme="exponential", **start).initialize()
+    F = np.array([0.05, -0.02, 0.1])
+    inst.set(F_x=F[0], F_y=F[1], F_z=F[2])
+    for k in range(5):
+        inst.fmu.doStep(currentCommunicationPoint=k * 1e-2, communicationStepSize=1e-2)
+    split = [m for m in _ok_messages(inst) if "internal step" in m]
+    assert len(split) == 1 and "in 1 internal step(s)" in split[0] and "no stability limit" in split[0], split
+    names = ("omega_1", "omega_2", "omega_3", "out_pos_x", "out_pos_y", "out_pos_z", "com_vel_x", "com_vel_y",
+             "com_vel_z")
+    fmu = np.array(inst.get(*names))
+    structure = load_model(BEAM)
+
+    def library(scheme, dt):
+        integ = ReframeIntegrator(structure, 6, scheme=scheme)
+        integ.set_initial(omega0=(1.0, 0.0, 3.0))
+        r = integ.run(0.05, dt, PointLoad(TIP, F), points=[(-0.5, -0.025, 0.0)], every=10**6)
+        return np.concatenate([r.omega[-1], r.point_position[-1, 0], r.com_velocity[-1]])
+
+    same = library("exponential", 1e-2)
+    np.testing.assert_allclose(fmu, same, rtol=1e-11, atol=1e-11 * np.abs(same).max())
+    fine = library("consistent", 1e-5)
+    err = np.max(np.abs(fmu - fine)) / np.abs(fine).max()
+    print(f"\nexponential FMU (10 ms, 1 internal step) vs consistent dt = 1e-5 s: relative error {err:.2g}")
+    assert err <= 1e-6
