@@ -2,21 +2,33 @@
 
 The FMU (fmu_src/FFRBeam.py) is a thin shell over this class: the variable names here are the
 FMU's.  Inputs are held over each step (zero-order hold) and the step is exact for such input
-(flexfmu.ffr_dynamics), so one internal step per communication step of any length.
+(flexfmu.ffr_dynamics), so one internal step per communication step of any length.  With
+integrator = "rk4" the step is classical RK4 instead, sub-stepped automatically below its stability
+limit (n_sub = ceil(h / (0.9 h_limit)) equal sub-steps, composed into one map per communication step).
+
+Model size (flexfmu.model_size, docs/model_size.md): elements_per_segment = 0 chooses the mesh from
+the convergence of the frequencies below f_max to within tolerance; n_modes = -1 keeps every mode below
+f_max; static_correction adds the residual flexibility of the omitted modes to the displacement outputs
+(and the strain energy), so the quasi-static deflection equals the full model's.  What was chosen and
+why, and the RK4 sub-stepping, go to ``messages`` (logged by the FMU).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
 
-from flexfmu.assembly import BOUNDARY_PRESETS, build_beam_model
+from flexfmu.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_model
 from flexfmu.errors import ParameterError, require
-from flexfmu.ffr_dynamics import BaseMotion, FFRBeamDynamics, ModalState
+from flexfmu.ffr_dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.modal import solve_modes
+from flexfmu.model_size import (MAX_ELEMENTS_PER_SEGMENT, ModelChoice, StaticCorrection, check_band,
+                                choose_elements_per_segment, choose_n_modes, ffr_static_correction)
 from flexfmu.scene import check_arc_length, load_scene
 from flexfmu.vec3 import cross as _cross
+from flexfmu.vec3 import skew as _skew
 
 AXES = ("x", "y", "z")
 FORCE_INPUTS = tuple(f"F_{a}" for a in AXES) + tuple(f"M_{a}" for a in AXES)
@@ -30,11 +42,17 @@ OUTPUT_NAMES = (tuple(f"sensor_{k}_{a}" for k in "uva" for a in AXES) + tuple(f"
 # The state norm beyond which a run counts as diverged (m-scale modal coordinates of a rod).
 _DIVERGENCE_LIMIT = 1e6
 _NO_ROTATION = BaseMotion()
+INTEGRATORS = ("exact", "rk4")
+#: RK4 sub-steps stay at or below this fraction of the stability limit (margin for the damping terms).
+RK4_STEP_FRACTION = 0.9
 
 
 @dataclass(frozen=True)
 class FFRBeamConfig:
-    """Parameters, named and defaulted as in the FMU.  load_s = -1 means the last point."""
+    """Parameters, named and defaulted as in the FMU.  load_s = -1 means the last point.
+
+    elements_per_segment = 0 and n_modes = -1 mean "choose" (from f_max and tolerance);
+    static_correction: -1 = on when n_modes = -1 (the modes are chosen), 0 = off, 1 = on."""
 
     scene: str = "spatial_double_L"
     boundary: str = "XFF"
@@ -43,38 +61,98 @@ class FFRBeamConfig:
     damping_ratio: float = 0.01
     load_s: float = -1.0
     sensor_s: float = 0.04
+    f_max: float = 300.0
+    tolerance: float = 1e-3
+    static_correction: int = -1
+    integrator: str = "exact"
+    geometric_stiffening: bool = False
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
 
 
 def _check_config(cfg: FFRBeamConfig) -> None:
     require(cfg.boundary in BOUNDARY_PRESETS and cfg.boundary != "free", "boundary",
             f"got {cfg.boundary!r}", "XFF | XFX | FXF | FXF_mid | scene")
-    require(isinstance(cfg.elements_per_segment, (int, np.integer)) and 1 <= cfg.elements_per_segment <= 512,
-            "elements_per_segment", f"got {cfg.elements_per_segment!r}", "1 .. 512")
-    require(cfg.n_modes != -1, "n_modes", "-1 (choose automatically) is not available yet", ">= 1")
-    require(isinstance(cfg.n_modes, (int, np.integer)) and cfg.n_modes >= 1, "n_modes",
-            f"got {cfg.n_modes!r}", ">= 1")
+    require(_is_int(cfg.elements_per_segment) and 0 <= cfg.elements_per_segment <= MAX_ELEMENTS_PER_SEGMENT,
+            "elements_per_segment", f"got {cfg.elements_per_segment!r}",
+            f"0 (choose from f_max and tolerance) or 1 .. {MAX_ELEMENTS_PER_SEGMENT}")
+    require(_is_int(cfg.n_modes) and (cfg.n_modes == -1 or cfg.n_modes >= 1), "n_modes",
+            f"got {cfg.n_modes!r}", "-1 (choose: every mode below f_max) or 1 .. number of free DOFs")
     require(np.isfinite(cfg.damping_ratio) and 0.0 <= cfg.damping_ratio < 1.0, "damping_ratio",
             f"got {cfg.damping_ratio!r}", "0 <= damping_ratio < 1")
+    check_band(cfg.f_max, cfg.tolerance)
+    require(isinstance(cfg.static_correction, (int, np.integer)) and cfg.static_correction in (-1, 0, 1),
+            "static_correction", f"got {cfg.static_correction!r}", "-1 (on when n_modes = -1), 0 (off), 1 (on)")
+    require(cfg.integrator in INTEGRATORS, "integrator", f"got {cfg.integrator!r}", " | ".join(INTEGRATORS))
+    require(isinstance(cfg.geometric_stiffening, (bool, np.bool_)), "geometric_stiffening",
+            f"got {cfg.geometric_stiffening!r}", "true | false")
+
+
+@dataclass(frozen=True)
+class _Built:
+    """What a configuration builds: the dynamics, the reported frequencies f_1..f_6 (Hz), the model
+    choice (for the log) and the static correction (None when off or nothing is omitted)."""
+
+    dynamics: FFRBeamDynamics
+    frequencies_hz: np.ndarray
+    choice: ModelChoice
+    correction: StaticCorrection | None
+
+
+def _lowest_modes(model, n_wanted: int, f_max: float | None = None):
+    """The lowest max(n_wanted, 1) modes, more while the highest solved is below f_max (Hz)."""
+    k = min(max(n_wanted, 1), model.n_free)
+    modes = solve_modes(model.K_free, model.M_free, k)
+    while f_max is not None and k < model.n_free and modes.frequencies_hz[-1] < f_max:
+        k = min(2 * k, model.n_free)
+        modes = solve_modes(model.K_free, model.M_free, k)
+    return modes
 
 
 @lru_cache(maxsize=8)
-def _build(cfg: FFRBeamConfig) -> tuple[FFRBeamDynamics, np.ndarray]:
+def _build(cfg: FFRBeamConfig) -> _Built:
     """Model, modes and dynamics for a configuration; cached, since instances of one FMU share them."""
     _check_config(cfg)
     scene = load_scene(cfg.scene)
     load_s = scene.total_length if cfg.load_s == -1.0 else check_arc_length(scene, cfg.load_s, "load_s")
     sensor_s = check_arc_length(scene, cfg.sensor_s, "sensor_s")
-    model = build_beam_model(scene, cfg.boundary, int(cfg.elements_per_segment),
-                             extra_arc_lengths=(load_s, sensor_s))
-    require(model.clamped_nodes.size > 0, "boundary", f"{cfg.boundary!r} clamps nothing in scene {scene.name}",
-            "a boundary with at least one clamp")
-    require(cfg.n_modes <= model.n_free, "n_modes", f"got {cfg.n_modes}", f"1 .. {model.n_free} (free DOFs)")
-    n_solve = min(max(cfg.n_modes, N_REPORTED_FREQUENCIES), model.n_free)
-    modes = solve_modes(model.K_free, model.M_free, n_solve)
+    require(len(boundary_clamps(scene, cfg.boundary)) > 0, "boundary",
+            f"{cfg.boundary!r} clamps nothing in scene {scene.name}", "a boundary with at least one clamp")
+    mesh_choice = None
+    n_el = int(cfg.elements_per_segment)
+    if n_el == 0:
+        mesh_choice = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
+                                                  extra_arc_lengths=(load_s, sensor_s), min_modes=max(cfg.n_modes, 1))
+        n_el = mesh_choice.elements_per_segment
+    model = build_beam_model(scene, cfg.boundary, n_el, extra_arc_lengths=(load_s, sensor_s))
+    if cfg.n_modes == -1:
+        if mesh_choice is not None:     # the modes whose *converged* frequency is below f_max
+            n_modes = max(1, mesh_choice.n_below_f_max)
+            modes = _lowest_modes(model, max(n_modes + 1, N_REPORTED_FREQUENCIES))
+        else:
+            modes = _lowest_modes(model, N_REPORTED_FREQUENCIES, cfg.f_max)
+            n_modes = choose_n_modes(modes.frequencies_hz, cfg.f_max)
+    else:
+        n_modes = int(cfg.n_modes)
+        require(n_modes <= model.n_free, "n_modes", f"got {n_modes}", f"1 .. {model.n_free} (free DOFs)")
+        # one more than retained only when the choice is logged (the first omitted mode is reported)
+        logged = mesh_choice is not None or cfg.static_correction == 1
+        modes = _lowest_modes(model, max(n_modes + int(logged), N_REPORTED_FREQUENCIES))
     reported = np.zeros(N_REPORTED_FREQUENCIES)   # 0 Hz = not available (fewer free DOFs than 6)
-    reported[:min(n_solve, N_REPORTED_FREQUENCIES)] = modes.frequencies_hz[:N_REPORTED_FREQUENCIES]
-    retained = type(modes)(modes.frequencies_hz[:cfg.n_modes], modes.shapes[:, :cfg.n_modes], modes.method)
-    return FFRBeamDynamics(model, retained, cfg.damping_ratio, load_s, sensor_s), reported
+    shown = modes.frequencies_hz[:N_REPORTED_FREQUENCIES]
+    reported[:shown.size] = shown
+    retained = type(modes)(modes.frequencies_hz[:n_modes], modes.shapes[:, :n_modes], modes.method)
+    dynamics = FFRBeamDynamics(model, retained, cfg.damping_ratio, load_s, sensor_s, integrator=cfg.integrator,
+                               geometric_stiffening=bool(cfg.geometric_stiffening))
+    corrected = cfg.static_correction == 1 or (cfg.static_correction == -1 and cfg.n_modes == -1)
+    correction = ffr_static_correction(dynamics) if corrected and n_modes < model.n_free else None
+    choice = ModelChoice(f_max=float(cfg.f_max), tolerance=float(cfg.tolerance), elements_per_segment=n_el,
+                         mesh=mesh_choice, n_modes=n_modes, modes_chosen=cfg.n_modes == -1,
+                         frequencies_hz=modes.frequencies_hz[:n_modes + 1].copy(), n_free=model.n_free,
+                         static_correction=corrected)
+    return _Built(dynamics, reported, choice, correction)
 
 
 class FFRBeamSimulator:
@@ -82,13 +160,23 @@ class FFRBeamSimulator:
 
     def __init__(self, config: FFRBeamConfig = FFRBeamConfig()):
         self.config = config
-        self.dynamics, self.frequencies_hz = _build(config)
+        built = _build(config)
+        self.dynamics, self.frequencies_hz = built.dynamics, built.frequencies_hz
+        self.model_choice, self.static_correction = built.choice, built.correction
+        #: What the model chose and why (model size, RK4 sub-steps); the FMU logs and clears it.
+        self.messages: list[str] = []
+        choice = built.choice
+        if choice.mesh is not None or choice.modes_chosen or choice.static_correction:
+            self.messages.append(choice.message())
         self.state = self.dynamics.initial_state()
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
         self._u = np.zeros(len(INPUT_NAMES))          # the inputs as a vector, INPUT_NAMES order
         self._k = self.dynamics.stiffness
         self._map_cache: dict = {}
         self._x, self._x_state = None, None
+        self._n_sub = None                             # RK4 sub-steps of the last step (logged when it changes)
+        # With geometric stiffening K_eff depends on the base acceleration too: the maps are per a0 as well.
+        self._held = slice(6, 15) if self.dynamics.geometric_stiffening else slice(9, 15)
 
     @property
     def time(self) -> float:
@@ -125,15 +213,20 @@ class FFRBeamSimulator:
         self.inputs = dict(zip(INPUT_NAMES, u.tolist()))
 
     def _maps(self, h):
-        """(Ad, Bu, b0 or None, Cx, Cu, y0) for step h (None: outputs only) and the held base rotation,
-        cached: the step and the outputs are then a few matrix-vector products."""
+        """(Ad, Bu, b0 or None, Cx, Cu, y0, energy terms, RK4 sub-steps) for step h (None: outputs only)
+        and the held base motion, cached: the step and the outputs are then a few matrix-vector products."""
         u = self._u
-        rot = tuple(u[9:15].tolist())
-        key = (h, rot)
+        key = (h, tuple(u[self._held].tolist()))
         hit = self._map_cache.get(key)
         if hit is None:
-            base = BaseMotion(omega=u[9:12].copy(), alpha=u[12:15].copy())
-            Ad, Bu, b0, C, y0 = self.dynamics.fast_maps(h, base)
+            dyn = self.dynamics
+            base = BaseMotion(a0=u[6:9].copy() if dyn.geometric_stiffening else np.zeros(3),
+                              omega=u[9:12].copy(), alpha=u[12:15].copy())
+            sub = None
+            if h is not None and dyn.integrator == "rk4":
+                Ad, Bu, b0, C, y0, sub = self._rk4_maps(h, base)
+            else:
+                Ad, Bu, b0, C, y0 = dyn.fast_maps(h, base)
             n = C.shape[1] - 9
             Cx = np.zeros((len(OUTPUT_NAMES), n))
             Cu = np.zeros((len(OUTPUT_NAMES), 9))
@@ -141,16 +234,62 @@ class FFRBeamSimulator:
             y = np.zeros(len(OUTPUT_NAMES))
             y[:18] = y0
             y[18:18 + N_REPORTED_FREQUENCIES] = self.frequencies_hz
+            energy = None
+            if self.static_correction is not None:
+                energy = self._add_static_correction(Cu, y, base)
             if len(self._map_cache) > 64:
                 self._map_cache.clear()
             hit = self._map_cache[key] = (Ad, Bu, b0 if (b0 is not None and b0.any()) else None,
-                                          np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y)
+                                          np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y, energy, sub)
         return hit
 
+    def _add_static_correction(self, Cu: np.ndarray, y: np.ndarray, base: BaseMotion):
+        """Residual flexibility (flexfmu.model_size) in the output maps for the held base rotation:
+        sensor_u and tip_u gain R f as affine terms of the inputs [F, M, a0]; returns the strain energy's
+        1/2 f^T R f as (Q (9, 9), linear (9,), constant) in those inputs."""
+        corr = self.static_correction
+        W = _skew(base.omega)
+        xab = (_skew(base.alpha) + W @ W).ravel()                 # X_ab, row-major: the rotation patterns' weights
+        for rows, block in ((slice(0, 3), corr.sensor), (slice(9, 12), corr.tip)):
+            Cu[rows] += block[:, :9]
+            y[rows] += block[:, 9:] @ xab
+        Q = corr.energy
+        return (0.5 * Q[:9, :9], Q[:9, 9:] @ xab, 0.5 * float(xab @ Q[9:, 9:] @ xab))
+
+    def _rk4_maps(self, h: float, base: BaseMotion):
+        """RK4 with n_sub = ceil(h / (0.9 h_limit)) equal sub-steps, composed into one affine map of the
+        communication step: [Ad c; 0 1]^n_sub by repeated squaring (c = [Bu b0]), O(log n_sub) products."""
+        dyn = self.dynamics
+        limit = dyn.rk4_step_limit(base)
+        n_sub = max(1, math.ceil(h / (RK4_STEP_FRACTION * limit))) if math.isfinite(limit) else 1
+        Ad, Bu, b0, C, y0 = dyn.fast_maps(h / n_sub, base)
+        if n_sub > 1:
+            m2, k = Ad.shape[0], Bu.shape[1]
+            step = np.zeros((m2 + k + 1, m2 + k + 1))
+            step[:m2, :m2], step[:m2, m2:m2 + k], step[:m2, -1] = Ad, Bu, b0
+            step[m2:, m2:] = np.eye(k + 1)
+            total = np.linalg.matrix_power(step, n_sub)
+            Ad, Bu, b0 = total[:m2, :m2].copy(), total[:m2, m2:m2 + k].copy(), total[:m2, -1].copy()
+        omega_max = RK4_STABILITY_LIMIT / limit if math.isfinite(limit) and limit > 0 else 0.0
+        return Ad, Bu, b0, C, y0, (n_sub, limit, omega_max, h)
+
+    def _log_substeps(self, sub) -> None:
+        n_sub, limit, omega_max, h = sub
+        self._n_sub = n_sub
+        self.messages.append(
+            f"integrator rk4: stable step limit {limit:.4g} s = {RK4_STABILITY_LIMIT:g} / omega_max with omega_max = "
+            f"{omega_max:.6g} rad/s ({omega_max / (2 * math.pi):.6g} Hz; highest retained mode, held base motion); "
+            + (f"communication step {h:.6g} s -> {n_sub} equal RK4 sub-steps of {h / n_sub:.4g} s "
+               f"(<= {RK4_STEP_FRACTION:g} x limit)" if n_sub > 1 else
+               f"communication step {h:.6g} s <= {RK4_STEP_FRACTION:g} x limit: 1 RK4 step, no sub-steps"))
+
     def step(self, step_size: float) -> None:
-        """Advance by step_size (s) with the current inputs held (exact zero-order hold, cached maps)."""
+        """Advance by step_size (s) with the current inputs held (exact zero-order hold, or RK4 sub-steps;
+        cached maps)."""
         require(np.isfinite(step_size) and step_size > 0, "step_size", f"got {step_size!r}", "> 0 s")
-        Ad, Bu, b0, _, _, _ = self._maps(float(step_size))
+        Ad, Bu, b0, _, _, _, _, sub = self._maps(float(step_size))
+        if sub is not None and sub[0] != self._n_sub:
+            self._log_substeps(sub)
         st = self.state
         m = st.eta.shape[0]
         x = Ad @ self._stacked()
@@ -178,7 +317,7 @@ class FFRBeamSimulator:
 
     def output_vector(self) -> np.ndarray:
         """All outputs at the current time for the current inputs (body frame, SI), OUTPUT_NAMES order."""
-        _, _, _, Cx, Cu, y0 = self._maps(None)
+        _, _, _, Cx, Cu, y0, energy, _ = self._maps(None)
         x = self._stacked()
         eta = self.state.eta
         y = Cx @ x
@@ -189,6 +328,9 @@ class FFRBeamSimulator:
             dyn = self.dynamics
             y[15:18] += _cross(dyn.load_disp_map @ eta, u[0:3]) - _cross(dyn.S_bar_hat @ eta, u[6:9])
         y[-1] = 0.5 * float(eta @ (self._k * eta))
+        if energy is not None:        # + 1/2 f^T R f of the static correction
+            Q, linear, constant = energy
+            y[-1] += float(u @ (Q @ u)) + float(linear @ u) + constant
         return y
 
     def outputs(self) -> dict[str, float]:
@@ -202,8 +344,15 @@ class FFRBeamSimulator:
         eta_ddot = dyn.acceleration(state, force, moment, base)
         u, v, a = dyn.sensor_motion(state, eta_ddot, base)
         F, M = dyn.reactions(state, eta_ddot, force, moment, base)
-        values = np.concatenate([u, v, a, dyn.tip_displacement(state), F, M, self.frequencies_hz,
-                                 [dyn.elastic_energy(state)]])
+        tip, energy = dyn.tip_displacement(state), dyn.elastic_energy(state)
+        if self.static_correction is not None:     # q_residual = R f on all DOFs, f from Eq. (*)'s patterns
+            W = _skew(base.omega)
+            z = np.concatenate([force, moment, base.a0, (_skew(base.alpha) + W @ W).ravel()])
+            q_res = self.static_correction.residual @ z
+            u = u + dyn.sensor.displacement_body(q_res)
+            tip = tip + dyn.tip.displacement_body(q_res)
+            energy += 0.5 * float(q_res @ (dyn.model.K @ q_res))
+        values = np.concatenate([u, v, a, tip, F, M, self.frequencies_hz, [energy]])
         return dict(zip(OUTPUT_NAMES, values.tolist()))
 
     # ---- state for FMI get/set/serialize: plain JSON-able data
@@ -227,11 +376,20 @@ def _axis_info(prefix: str, unit: str, text: str) -> dict:
 VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "scene": ("", "built-in scene name (spatial_double_L, inclined_beam, c_section) or path to a scene JSON"),
     "boundary": ("", "clamps: XFF | XFX | FXF (first corner) | FXF_mid (mid segment 2) | scene"),
-    "elements_per_segment": ("", "beam elements per polyline segment, 1 .. 512"),
-    "n_modes": ("", "retained modes, 1 .. number of free DOFs"),
+    "elements_per_segment": ("", "beam elements per polyline segment, 1 .. 512; 0 = choose: the fewest whose "
+                             "frequencies below f_max are within tolerance of the converged ones"),
+    "n_modes": ("", "retained modes, 1 .. number of free DOFs; -1 = choose: every mode below f_max"),
     "damping_ratio": ("", "modal damping ratio of every retained mode, 0 <= zeta < 1"),
     "load_s": ("m", "arc length of the load point from the first point; -1 = the last point"),
     "sensor_s": ("m", "arc length of the sensor (accelerometer) point"),
+    "f_max": ("Hz", "highest frequency of interest, for n_modes = -1 and elements_per_segment = 0 (> 0)"),
+    "tolerance": ("", "relative frequency error allowed when elements_per_segment = 0, 1e-6 .. 0.1"),
+    "static_correction": ("", "residual flexibility of the omitted modes in sensor_u, tip_u and elastic_energy "
+                          "(exact quasi-static deflection): -1 = on when n_modes = -1, 0 = off, 1 = on"),
+    "integrator": ("", "exact (zero-order-hold matrix exponential, any step) | rk4 (classical RK4, sub-stepped "
+                   "automatically below its stability limit 2.8 / omega_max)"),
+    "geometric_stiffening": ("", "add the geometric (centrifugal) stiffness of the held base motion's "
+                             "inertial load"),
     **_axis_info("F", "N", "force at load_s"),
     **_axis_info("M", "N.m", "moment at load_s"),
     **_axis_info("base_a", "m/s2", "acceleration of the floating-frame origin (base)"),
@@ -245,5 +403,5 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **_axis_info("reaction_M", "N.m", "moment the structure exerts on its clamps, about the frame origin"),
     **{f"f_{i}": ("Hz", f"natural frequency {i} of the clamped structure (0 = not available)")
        for i in range(1, N_REPORTED_FREQUENCIES + 1)},
-    "elastic_energy": ("J", "strain energy of the retained modes"),
+    "elastic_energy": ("J", "strain energy of the retained modes (plus the static correction's when on)"),
 }

@@ -1,0 +1,342 @@
+"""A model no larger than the scene needs: mesh, number of modes and static correction.
+
+Given a frequency band of interest (0 .. f_max) and a relative tolerance:
+
+* **Elements per segment** from the convergence of the frequencies below f_max.  The beam element
+  (Hermite cubics for bending, linear axial and torsion, consistent mass) is a conforming
+  Rayleigh-Ritz discretisation, so its frequencies converge monotonically from above: as h^4 for
+  bending-dominated modes (error ratios 12-16 per halving on the spatial double-L,
+  docs/model_size.md), as h^2 for modes dominated by axial or torsional deformation.  For a pair of
+  meshes (n, 2n) Richardson's estimate of the coarse mesh's relative error is
+
+      f_inf = f_2n - (f_n - f_2n) / (2^p - 1),   e_n = |f_n - f_2n| / f_inf * 2^p / (2^p - 1),   p = 4,   (R)
+
+  with f_inf the extrapolated ("converged") frequency.
+  A mesh is accepted when SAFETY_FACTOR * e <= tolerance for every frequency below f_max.  With
+  SAFETY_FACTOR = 2 the test stays conservative for any observed order p >= 1 (the true error of
+  the coarse mesh is d 2^p / (2^p - 1) <= 2 d, d = |f_n - f_2n| / f_inf, for a power law from
+  above), so also for the h^2 modes.  Meshes are doubled from 1 element per segment until a
+  pair passes; the smallest passing n between the last failing and the first passing doubling is
+  then found by bisection, its errors measured against f_inf of the passing pair.  Fine meshes of
+  slender rods are ill-conditioned (element length below the diameter at ~64 elements per segment
+  of the double-L): where the estimated error stops halving per doubling the tolerance is declared
+  unreachable (round-off), as it is when it would take more than max_elements_per_segment.
+
+* **Number of modes**: every mode whose converged frequency is below f_max, at least one (a model
+  without modes has no dynamics).  A mode above f_max is omitted; with the static correction its
+  quasi-static part is kept exactly and what is lost is its dynamic amplification: for input at
+  frequency f the omitted mode j responds with 1 / (1 - r^2), r = f / f_j, of its static
+  contribution, so the relative error of the corrected model in that mode's share is
+  r^2 / (1 - r^2) (r = 1/2: 33 %; r = 1/10: 1 %).  For the response to be accurate to
+  `tolerance` up to a frequency f, choose f_max >= f * sqrt(1 + 1 / tolerance).
+
+* **Static correction** (mode-acceleration method / residual flexibility): the free-DOF
+  displacement is q = Phi eta + R f with the residual flexibility
+
+      R = K^-1 - Phi Lambda^-1 Phi^T                                                (RF)
+
+  (mass-normalised Phi, Lambda = diag(omega_i^2)) applied to the load f(t) acting at that
+  instant.  At equilibrium eta = Lambda^-1 Phi^T f, so q = K^-1 f: the truncated model's static
+  deflection equals the full model's exactly.  Phi^T K R = 0 and R K R = R, so the strain energy
+  is 1/2 eta^T Lambda eta + 1/2 f^T R f.  For the FFR beam the load patterns are those of
+  flexfmu.ffr_dynamics Eq. (*): load-point force and moment, base acceleration (-S_bar^T a0) and
+  the nine base-rotation patterns (-P_ab, multiplied by X_ab); see :func:`ffr_load_patterns`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from flexfmu.assembly import build_beam_model
+from flexfmu.errors import ParameterError, require
+from flexfmu.modal import solve_modes
+from flexfmu.scene import Scene
+
+CONVERGENCE_ORDER = 4               # h^4: Euler-Bernoulli Hermite cubics, frequency (eigenvalue) error
+SAFETY_FACTOR = 2.0                 # see the module docstring: conservative for observed orders >= 1
+MAX_ELEMENTS_PER_SEGMENT = 512
+# Below ~1e-6 the eigen solver's round-off on fine meshes (~1e-7 relative, docs/model_size.md) is no
+# longer small against the tolerance; above 0.1 the h^4 asymptotics the estimate relies on do not hold.
+TOLERANCE_RANGE = (1e-6, 0.1)
+_FIRST_MODES_SOLVED = 8             # modes per eigen solve to begin with (doubled while all are below f_max)
+# Free DOFs up to which the meshes are solved densely; beyond, shift-invert on the banded matrices is ~30x
+# cheaper (0.1 s against 2-6 s CPU at 576-1152 DOFs) and within ~2e-8 of the dense frequencies.
+_DENSE_UP_TO = 200
+
+
+@dataclass(frozen=True)
+class MeshChoice:
+    """The chosen elements per segment and why.
+
+    converged_hz: extrapolated frequencies (R) of the modes of interest (Hz); chosen_hz: the chosen
+    mesh's; relative_errors: its estimated relative errors, per mode of interest; rejected: the
+    next smaller mesh tried and its worst estimated error (None if 1 element already passes);
+    reference_meshes: the pair (n, 2n) the extrapolation came from; n_below_f_max: modes whose
+    converged frequency is below f_max; meshes_solved: every elements_per_segment solved.
+    """
+
+    elements_per_segment: int
+    f_max: float
+    tolerance: float
+    converged_hz: np.ndarray
+    chosen_hz: np.ndarray
+    relative_errors: np.ndarray
+    n_below_f_max: int
+    reference_meshes: tuple[int, int]
+    rejected: tuple[int, float] | None
+    meshes_solved: tuple[int, ...]
+    safety_factor: float = SAFETY_FACTOR
+    order: int = CONVERGENCE_ORDER
+
+    @property
+    def worst_error(self) -> float:
+        return float(np.max(self.relative_errors))
+
+    @property
+    def worst_mode(self) -> int:
+        """1-based index of the mode with the largest estimated error."""
+        return int(np.argmax(self.relative_errors)) + 1
+
+
+def check_band(f_max: float, tolerance: float) -> None:
+    """ParameterError unless f_max > 0 (Hz, finite) and tolerance lies in TOLERANCE_RANGE."""
+    require(isinstance(f_max, (int, float, np.floating)) and math.isfinite(f_max) and f_max > 0, "f_max",
+            f"got {f_max!r}", "a finite frequency > 0 Hz")
+    lo, hi = TOLERANCE_RANGE
+    require(isinstance(tolerance, (int, float, np.floating)) and math.isfinite(tolerance)
+            and lo <= tolerance <= hi, "tolerance", f"got {tolerance!r}", f"{lo:g} .. {hi:g} (relative)")
+
+
+def richardson(coarse_hz: np.ndarray, fine_hz: np.ndarray, order: int = CONVERGENCE_ORDER):
+    """(extrapolated frequencies, estimated relative errors of the coarse mesh), Eq. (R)."""
+    gain = 2.0 ** order
+    diff = np.asarray(coarse_hz, float) - np.asarray(fine_hz, float)
+    extrapolated = np.asarray(fine_hz, float) - diff / (gain - 1.0)
+    return extrapolated, np.abs(diff) * gain / (gain - 1.0) / np.maximum(np.abs(extrapolated), 1e-300)
+
+
+def choose_n_modes(frequencies_hz, f_max: float) -> int:
+    """Number of modes to retain: all below f_max (Hz), at least one."""
+    return max(1, int(np.count_nonzero(np.asarray(frequencies_hz) < f_max)))
+
+
+def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, tolerance: float, *,
+                                extra_arc_lengths=(), min_modes: int = 1,
+                                max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT,
+                                safety_factor: float = SAFETY_FACTOR) -> MeshChoice:
+    """Smallest elements per segment whose frequencies below f_max (and the first ``min_modes``,
+    whatever their frequency) are within ``tolerance`` (relative) of the converged ones, estimated
+    as in the module docstring.  The meshes are built as flexfmu.assembly.build_beam_model does
+    for the model itself (same boundary and extra nodes)."""
+    check_band(f_max, tolerance)
+    require(isinstance(min_modes, (int, np.integer)) and min_modes >= 1, "min_modes", f"got {min_modes!r}",
+            "an integer >= 1")
+    require(isinstance(max_elements_per_segment, (int, np.integer)) and max_elements_per_segment >= 1,
+            "max_elements_per_segment", f"got {max_elements_per_segment!r}", "an integer >= 1")
+    solved: dict[int, np.ndarray] = {}
+    complete: set[int] = set()            # meshes whose every mode is solved (fewer free DOFs than asked)
+    n_wanted = max(_FIRST_MODES_SOLVED, min_modes + 1)
+
+    def frequencies(n: int) -> np.ndarray:
+        """Lowest n_wanted frequencies of the mesh (all of them if it has fewer free DOFs)."""
+        if n not in solved or (len(solved[n]) < n_wanted and n not in complete):
+            model = build_beam_model(scene, boundary, int(n), extra_arc_lengths=tuple(extra_arc_lengths))
+            k = min(n_wanted, model.n_free)
+            method = "dense" if model.n_free <= _DENSE_UP_TO or k >= model.n_free - 1 else "sparse"
+            solved[n] = solve_modes(model.K_free, model.M_free, k, method=method).frequencies_hz
+            if k == model.n_free:
+                complete.add(n)
+        return solved[n]
+
+    def modes_of_interest(reference_hz: np.ndarray) -> int:
+        return max(min_modes, int(np.count_nonzero(reference_hz < f_max)))
+
+    def worst(coarse: np.ndarray, reference: np.ndarray, k: int) -> np.ndarray:
+        """Relative errors of the first k modes of ``coarse`` against ``reference`` (inf if absent)."""
+        if len(coarse) < k:
+            return np.full(k, np.inf)
+        return np.abs(coarse[:k] - reference[:k]) / reference[:k]
+
+    n, previous_worst = 1, np.inf
+    while True:
+        fine = frequencies(2 * n)
+        # Every mode below f_max must be among those solved (frequencies converge from above, so the
+        # finer mesh's count is the one to trust).
+        while 2 * n not in complete and fine[-1] < f_max:
+            n_wanted *= 2
+            fine = frequencies(2 * n)
+        coarse = frequencies(n)
+        common = min(len(coarse), len(fine))
+        extrapolated, errors = richardson(coarse[:common], fine[:common])
+        # below f_max after extrapolation (lower than the fine mesh's) or on the fine mesh
+        k = modes_of_interest(np.minimum(extrapolated, fine[:common]))
+        if k >= len(fine) and 2 * n not in complete:      # the band may reach beyond the modes solved
+            n_wanted = 2 * max(n_wanted, k)
+            continue
+        if k <= common:
+            extrapolated, errors = extrapolated[:k], errors[:k]
+        else:                                             # a mesh with fewer modes than needed
+            extrapolated, errors = np.asarray(fine[:k], float), np.full(k, np.inf)
+        worst_now = float(np.max(errors))
+        if safety_factor * worst_now <= tolerance:
+            break
+        if 2 * n > max_elements_per_segment:
+            raise ParameterError("tolerance", f"{tolerance:g} is not reachable with at most "
+                                 f"{max_elements_per_segment} elements per segment (estimated error "
+                                 f"{worst_now:.2g} at {n})", f"{TOLERANCE_RANGE[0]:g} .. {TOLERANCE_RANGE[1]:g}, "
+                                 "or more elements allowed")
+        if n >= 8 and math.isfinite(previous_worst) and not worst_now < 0.5 * previous_worst:
+            raise ParameterError("tolerance", f"{tolerance:g} is not reachable: the frequencies stop converging at "
+                                 f"an estimated error {worst_now:.2g} ({n} elements per segment; round-off of the "
+                                 "eigen solver)", f"a tolerance above {safety_factor * worst_now:.2g}")
+        previous_worst = worst_now
+        n *= 2
+    n_hi = n
+    chosen, rejected = n_hi, None
+    errors_at = {n_hi: errors}
+    if n_hi > 1:
+        # The smallest passing mesh lies in (n_hi / 2, n_hi]: bisection, with the errors now measured
+        # against the extrapolated frequencies (the error falls monotonically with n in the
+        # asymptotic range; the prediction e(n) = e(n / 2) / 16 would misplace the h^2 modes).
+        lo, hi = n_hi // 2, n_hi
+
+        def passes(candidate: int) -> bool:
+            if candidate not in errors_at:
+                errors_at[candidate] = worst(frequencies(candidate), extrapolated, k)
+            return safety_factor * float(np.max(errors_at[candidate])) <= tolerance
+
+        passes(lo)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (lo, mid) if passes(mid) else (mid, hi)
+        chosen, rejected = hi, (lo, float(np.max(errors_at[lo])))
+    chosen_errors = errors_at[chosen]
+    return MeshChoice(elements_per_segment=int(chosen), f_max=float(f_max), tolerance=float(tolerance),
+                      converged_hz=np.asarray(extrapolated, float),
+                      chosen_hz=np.asarray(frequencies(chosen)[:k], float),
+                      relative_errors=np.asarray(chosen_errors, float),
+                      n_below_f_max=int(np.count_nonzero(extrapolated < f_max)), reference_meshes=(n_hi, 2 * n_hi),
+                      rejected=rejected, meshes_solved=tuple(sorted(solved)), safety_factor=float(safety_factor))
+
+
+# ---------------------------------------------------------------------------------------------- static correction
+def residual_flexibility(K_free, shapes: np.ndarray, eigenvalues: np.ndarray, loads: np.ndarray) -> np.ndarray:
+    """R @ loads with R = K^-1 - Phi Lambda^-1 Phi^T (Eq. RF), on the free DOFs.
+
+    K_free (n, n) positive definite (sparse or dense); shapes Phi (n, m) mass-normalised;
+    eigenvalues Lambda (m,) = omega_i^2 (rad^2/s^2); loads (n, k) load patterns.  Returns (n, k): the
+    quasi-static displacement per unit of each pattern that the m retained modes miss."""
+    loads = np.asarray(loads, float)
+    shapes = np.asarray(shapes, float)
+    eigenvalues = np.asarray(eigenvalues, float)
+    require(shapes.shape[0] == loads.shape[0] == K_free.shape[0], "loads",
+            f"shapes {shapes.shape}, loads {loads.shape}, K {K_free.shape}", "the same number of free DOFs")
+    require(bool(np.all(eigenvalues > 0)), "eigenvalues", "a retained mode has omega^2 <= 0",
+            "a clamped structure (positive definite K)")
+    if shapes.shape[1] == K_free.shape[0]:     # every mode retained: R = 0 exactly
+        return np.zeros_like(loads)
+    if sp.issparse(K_free):
+        static = spla.splu(sp.csc_matrix(K_free)).solve(loads)
+    else:
+        static = np.linalg.solve(np.asarray(K_free, float), loads)
+    return static - shapes @ ((shapes.T @ loads) / eigenvalues[:, None])
+
+
+LOAD_PATTERN_NAMES = (("F_x", "F_y", "F_z", "M_x", "M_y", "M_z", "base_a_x", "base_a_y", "base_a_z")
+                      + tuple(f"X_{a}{b}" for a in "xyz" for b in "xyz"))
+
+
+def ffr_load_patterns(dynamics) -> np.ndarray:
+    """(n_dof, 18) physical load patterns of flexfmu.ffr_dynamics Eq. (*), all DOFs, body frame:
+    columns 0-8 multiply the inputs [F, M, a0] (load-point force S_F^T, moment S_M^T, inertial load
+    -S_bar^T of the base acceleration), columns 9-17 multiply X_ab = ([alpha]x + [omega]x^2)_ab
+    (row-major a, b): -P_ab, the inertial load of the held base rotation on the undeformed rod."""
+    n = dynamics.model.n_dof
+    ints = dynamics.integrals
+    rotation = -ints.P.reshape(9, n).T
+    return np.hstack([dynamics.load.full_translation(n).T, dynamics.load.full_rotation(n).T, -ints.S_bar.T,
+                      rotation])
+
+
+@dataclass
+class StaticCorrection:
+    """Residual-flexibility terms of the outputs for the load vector z = [F, M, a0, X_ab (9)] (18,):
+
+    sensor_u += sensor @ z, tip_u += tip @ z (m, body frame), elastic energy += 1/2 z^T energy z (J);
+    residual (n_dof, 18): the residual displacement per pattern on all DOFs (for term-by-term checks)."""
+
+    sensor: np.ndarray
+    tip: np.ndarray
+    energy: np.ndarray
+    residual: np.ndarray = field(repr=False)
+
+
+def ffr_static_correction(dynamics) -> StaticCorrection:
+    """The static correction of an FFRBeamDynamics' displacement outputs and strain energy."""
+    model = dynamics.model
+    patterns = ffr_load_patterns(dynamics)
+    free = model.B2.T @ patterns
+    residual_free = residual_flexibility(model.K_free, dynamics.modes.shapes, dynamics.stiffness, free)
+    residual = model.B2 @ residual_free
+    n = model.n_dof
+    energy = free.T @ residual_free          # z^T (G^T R G) z = f^T R f
+    return StaticCorrection(sensor=dynamics.sensor.full_translation(n) @ residual,
+                            tip=dynamics.tip.full_translation(n) @ residual,
+                            energy=0.5 * (energy + energy.T), residual=residual)
+
+
+# ---------------------------------------------------------------------------------------------- the report
+@dataclass(frozen=True)
+class ModelChoice:
+    """What an FFR beam model retains and why; ``message()`` is what the FMU logs.
+
+    mesh: the mesh choice (None when elements_per_segment was given); modes_chosen: n_modes chosen
+    from f_max (False: given); frequencies_hz: the chosen mesh's lowest frequencies (the retained
+    ones and, when there is one, the first omitted); n_free: free DOFs of the chosen mesh."""
+
+    f_max: float
+    tolerance: float
+    elements_per_segment: int
+    mesh: MeshChoice | None
+    n_modes: int
+    modes_chosen: bool
+    frequencies_hz: np.ndarray
+    n_free: int
+    static_correction: bool
+
+    def message(self) -> str:
+        band = (f" (f_max = {self.f_max:g} Hz, tolerance = {self.tolerance:g})" if self.mesh is not None
+                else f" (f_max = {self.f_max:g} Hz)" if self.modes_chosen else "")
+        parts = [f"model size{band}:"]
+        mesh = self.mesh
+        if mesh is None:
+            parts.append(f"elements_per_segment = {self.elements_per_segment} (given);")
+        else:
+            why = (f"elements_per_segment = {mesh.elements_per_segment} (chosen: estimated relative error of the "
+                   f"{len(mesh.relative_errors)} frequencies below f_max at most {mesh.worst_error:.2e} (mode "
+                   f"{mesh.worst_mode}, {mesh.chosen_hz[mesh.worst_mode - 1]:.6g} Hz), x{mesh.safety_factor:g} "
+                   f"safety = {mesh.safety_factor * mesh.worst_error:.2e} <= {mesh.tolerance:g}; h^{mesh.order} "
+                   f"Richardson reference from {mesh.reference_meshes[0]}/{mesh.reference_meshes[1]} elements")
+            if mesh.rejected is not None:
+                n_rej = mesh.rejected[0]
+                why += (f"; {n_rej} element{'s' if n_rej > 1 else ''} per segment: error {mesh.rejected[1]:.2e}, "
+                        "rejected")
+            parts.append(why + ");")
+        retained = ", ".join(f"{f:.6g}" for f in self.frequencies_hz[:self.n_modes])
+        omitted = self.frequencies_hz[self.n_modes:]
+        nxt = f"; first omitted {omitted[0]:.6g} Hz" if omitted.size else "; no mode omitted"
+        how = "chosen: every mode below f_max" if self.modes_chosen else "given"
+        if self.modes_chosen and not np.any(self.frequencies_hz[:1] < self.f_max):
+            how = "chosen: no mode below f_max, the fundamental kept"
+        parts.append(f"n_modes = {self.n_modes} of {self.n_free} ({how}: {retained} Hz{nxt});")
+        if self.static_correction:
+            parts.append(f"static correction on (residual flexibility of the {self.n_free - self.n_modes} omitted "
+                         "modes for F, M, base_a and base rotation: sensor_u, tip_u and elastic_energy equal the "
+                         "full model's in the quasi-static limit; sensor_v, sensor_a and reactions uncorrected)")
+        else:
+            parts.append("static correction off")
+        return " ".join(parts)
