@@ -74,7 +74,7 @@ def test_rollback_is_bit_identical(body):
 ERRORS = [
     ("unknown model", {"model": "no_such_model"}, "model"),
     ("unknown scheme", {"scheme": "euler"}, "scheme"),
-    ("internal step beyond the RK4 limit", {"model": "beam:spatial_double_L", "internal_step": 1.0}, "internal_step"),
+    ("internal step beyond the RK4 limit", {"model": "beam:spatial_double_L", "scheme": "consistent", "internal_step": 1.0}, "internal_step"),
     ("negative modes", {"model": "beam:spatial_double_L", "n_flexible_modes": -2}, "n_flexible_modes"),
     ("damping", {"model": "beam:spatial_double_L", "damping_ratio": -0.1}, "damping_ratio"),
 ]

@@ -68,8 +68,8 @@ def test_communication_step_beyond_the_rk4_limit_is_substepped_and_logged(body):
     """Six flexible modes (up to 1315 Hz), consistent scheme, communication step 10 ms: dt omega_max = 83
     is detected, split into 33 internal steps (90 % of the limit) and logged once; the result equals the
     library with dt = 10 ms / 33."""
-    inst = body(model=BEAM, n_flexible_modes=6, omega0_3=3.0, load_point_x=TIP[0], load_point_y=TIP[1],
-                load_point_z=TIP[2]).initialize()
+    inst = body(model=BEAM, scheme="consistent", n_flexible_modes=6, omega0_3=3.0, load_point_x=TIP[0],
+                load_point_y=TIP[1], load_point_z=TIP[2]).initialize()
     F = np.array([0.5, -0.2, 1.0])
     inst.set(F_x=F[0], F_y=F[1], F_z=F[2])
     for k in range(3):
