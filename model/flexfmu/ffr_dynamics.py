@@ -52,6 +52,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from flexfmu._blas import single_thread
 from flexfmu.assembly import BeamModel
 from flexfmu.beam_element import local_shape_functions
 from flexfmu.errors import require
@@ -279,7 +280,8 @@ class FFRBeamDynamics:
         A[m:2 * m, :m] = -K_eff
         A[m:2 * m, m:2 * m] = -C_eff
         A[m:2 * m, 2 * m + 1:] = np.eye(m)
-        E = sla.expm(A[:, :] * h)
+        with single_thread():        # a small matrix: BLAS threads only slow it down (flexfmu._blas)
+            E = sla.expm(A[:, :] * h)
         Ad = E[:2 * m, :2 * m]
         Bd = E[:2 * m, 2 * m + 1:]
         if len(self._cache) > 64:      # inputs that vary every step: keep memory bounded
