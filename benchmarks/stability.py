@@ -514,10 +514,12 @@ STUDIES = {"rk4": study_rk4, "rotation": study_rotation, "cosim": study_cosim, "
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", choices=sorted(STUDIES), action="append", help="run only these studies")
-    parser.add_argument("--figures", type=Path, default=ROOT / "docs" / "figures", help="folder for the PNGs")
+    parser.add_argument("--figures", "--out", type=Path, default=ROOT / "docs" / "figures",
+                        help="folder for the PNGs (--out: the same, for flexfmu bench)")
+    parser.add_argument("--quick", action="store_true", help="skip the co-simulation map (the slowest study)")
     args = parser.parse_args(argv)
     args.figures.mkdir(parents=True, exist_ok=True)
-    for name in args.only or STUDIES:
+    for name in args.only or [n for n in STUDIES if not (args.quick and n == "cosim")]:
         t0 = time.perf_counter()
         STUDIES[name](args.figures)
         print(f"   ({name}: {time.perf_counter() - t0:.0f} s)")

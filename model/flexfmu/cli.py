@@ -2,10 +2,11 @@
 
     flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json]
     flexfmu build [--out dist]
-    flexfmu reframe MODEL [--scheme paper|consistent] [--t-end T] [--dt DT] [--modes N]
+    flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
     flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|library]
                     [--scheme gauss-seidel|jacobi] [--fmu-dir DIR] [--plot PNG]
+    flexfmu bench [performance|work-precision|stability|spinup] [--quick] [--out FILE]
     flexfmu main            the modal report of the paper's specimen (python3 tasks.py main does more)
 
 Bad input exits with status 2 and a one-line message naming the parameter.
@@ -48,15 +49,25 @@ def _modal(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bench(args: argparse.Namespace) -> int:
-    """Run the source checkout's benchmarks/performance.py."""
-    root = Path(__file__).resolve().parents[2]
-    if not (root / "benchmarks" / "performance.py").is_file():
-        print("flexfmu: error: bench: needs a source checkout (benchmarks/performance.py)", file=sys.stderr)
-        return 2
-    sys.path.insert(0, str(root))
-    from benchmarks.performance import main as bench_main
+#: ``flexfmu bench STUDY``: the source checkout's benchmarks/<module>.py, each with main(argv).
+BENCH_STUDIES = {"performance": "performance", "work-precision": "work_precision", "stability": "stability",
+                 "spinup": "spinup"}
 
+
+def _bench(args: argparse.Namespace) -> int:
+    """Run a study of the source checkout's benchmarks/ (default: performance.py) through its main(argv)."""
+    import importlib
+
+    root = Path(__file__).resolve().parents[2]
+    module = BENCH_STUDIES[args.study]
+    script = root / "benchmarks" / f"{module}.py"
+    if not script.is_file():
+        print(f"flexfmu: error: bench {args.study}: needs a source checkout with benchmarks/{module}.py "
+              f"(not found next to the installed package at {Path(__file__).parent})", file=sys.stderr)
+        return 2
+    if str(root) not in sys.path:
+        sys.path.insert(0, str(root))
+    bench_main = importlib.import_module(f"benchmarks.{module}").main
     return bench_main((["--quick"] if args.quick else []) + (["--out", args.out] if args.out else []))
 
 
@@ -271,8 +282,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "global force at the model's default load point (paper_plate: midway between P5 and P8; "
                     "beam / .npz: the last node); outputs at the default output point (P1; the first node).")
     reframe.add_argument("model", metavar="MODEL", help="paper_plate | beam:<scene> | path to a .npz")
-    reframe.add_argument("--scheme", choices=("consistent", "paper"), default="consistent",
-                         help="consistent (default) or the paper's printed scheme")
+    reframe.add_argument("--scheme", choices=("consistent", "exponential", "paper"), default="consistent",
+                         help="consistent (default, RK4), exponential (exact in the modes' linear part, no RK4 limit) or the paper's printed scheme")
     reframe.add_argument("--t-end", type=float, default=1.0, metavar="T", help="end time, s (default 1)")
     reframe.add_argument("--dt", type=float, default=1e-4, metavar="DT", help="time step, s (default 1e-4)")
     reframe.add_argument("--modes", type=int, default=10, metavar="N",
@@ -314,11 +325,15 @@ def build_parser() -> argparse.ArgumentParser:
                          help="skip the coupling-stability check (a few seconds for the wave-energy converter)")
     cosim_p.set_defaults(func=_cosim)
 
-    bench = sub.add_parser("bench", help="performance figures (benchmarks/performance.py; source checkout)",
-                           description="Print the performance table (figure, ours, peer or limit, ratio) and write "
-                                       "docs/performance.md.")
-    bench.add_argument("--quick", action="store_true", help="short records, no 51k-DOF plate, no Exudyn")
-    bench.add_argument("--out", default=None, help="report file (default docs/performance.md); '-' prints only")
+    bench = sub.add_parser("bench", help="benchmark studies (benchmarks/<study>.py; source checkout)",
+                           description="Run a benchmark study of the source checkout: performance (default; the "
+                                       "performance table, writes docs/performance.md), work-precision (error "
+                                       "against CPU time; docs/work_precision.md and charts), stability, spinup.")
+    bench.add_argument("study", nargs="?", choices=tuple(BENCH_STUDIES), default="performance",
+                       help="which study (default performance)")
+    bench.add_argument("--quick", action="store_true", help="the study's short version")
+    bench.add_argument("--out", default=None, help="the study's report file (default: its file in docs/); "
+                                                   "performance: '-' prints only")
     bench.set_defaults(func=_bench)
 
     main_job = sub.add_parser("main", help="the main job: the paper's spatial double pendulum, all boundaries")
