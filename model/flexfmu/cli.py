@@ -283,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "beam / .npz: the last node); outputs at the default output point (P1; the first node).")
     reframe.add_argument("model", metavar="MODEL", help="paper_plate | beam:<scene> | path to a .npz")
     reframe.add_argument("--scheme", choices=("consistent", "exponential", "paper"), default="consistent",
-                         help="consistent (default, RK4), exponential (exact in the modes' linear part, no RK4 limit) or the paper's printed scheme")
+                         help="consistent (default, RK4), exponential (exact in the modes' linear part, no RK4 "
+                              "limit) or the paper's printed scheme")
     reframe.add_argument("--t-end", type=float, default=1.0, metavar="T", help="end time, s (default 1)")
     reframe.add_argument("--dt", type=float, default=1e-4, metavar="DT", help="time step, s (default 1e-4)")
     reframe.add_argument("--modes", type=int, default=10, metavar="N",
