@@ -59,9 +59,13 @@ def test_automatic_model_is_logged_and_matches_the_library(ffr):
     choice = sim.model_choice
     (message,) = [m for m in ok_messages(inst) if m.startswith("model size")]
     # the choice and the numbers that justify it
-    for text in ("elements_per_segment = 2 (chosen", f"{choice.mesh.worst_error:.2e}", "<= 0.001",
-                 "1 element per segment: error", "n_modes = 5 of 42 (chosen: every mode below f_max",
-                 "219.217", "first omitted 322.204 Hz", "static correction on"):
+    n_el, n = choice.elements_per_segment, choice.n_modes
+    for text in (f"elements_per_segment = {n_el} (chosen", f"{choice.mesh.worst_error:.2e}", "<= 0.001",
+                 f"{n_el - 1} elements per segment: error", "retained frequencies",
+                 f"n_modes = {n} of {choice.n_free} (chosen: the 5 modes below f_max and {n - 5} above",
+                 "dynamic truncation error of tip_u and sensor_u", f"{choice.truncation.error:.2e}, x2 safety",
+                 f"worst: {choice.truncation.worst}", "219.155", f"first omitted {choice.frequencies_hz[n]:.6g} Hz",
+                 "static correction on"):
         assert text in message, (text, message)
     assert message == sim.messages[0]             # the library's own message, word for word
     assert_same_run(fmu_out, lib_out)

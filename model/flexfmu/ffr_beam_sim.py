@@ -7,8 +7,10 @@ integrator = "rk4" the step is classical RK4 instead, sub-stepped automatically 
 limit (n_sub = ceil(h / (0.9 h_limit)) equal sub-steps, composed into one map per communication step).
 
 Model size (flexfmu.model_size, docs/model_size.md): elements_per_segment = 0 chooses the mesh from
-the convergence of the frequencies below f_max to within tolerance; n_modes = -1 keeps every mode below
-f_max; static_correction adds the residual flexibility of the omitted modes to the displacement outputs
+the convergence of the frequencies below f_max (with n_modes = -1: of every retained mode) to within
+tolerance; n_modes = -1 keeps every mode below f_max and more above it until the estimated dynamic
+truncation error of the displacement outputs is within tolerance (mode-acceleration estimate, Eq. (E)
+of flexfmu.model_size); static_correction adds the residual flexibility of the omitted modes to the displacement outputs
 (and the strain energy), so the quasi-static deflection equals the full model's.  What was chosen and
 why, and the RK4 sub-stepping, go to ``messages`` (logged by the FMU).
 """
@@ -24,8 +26,9 @@ from flexfmu.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_model
 from flexfmu.errors import ParameterError, require
 from flexfmu.ffr_dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.modal import solve_modes
-from flexfmu.model_size import (MAX_ELEMENTS_PER_SEGMENT, ModelChoice, StaticCorrection, check_band,
-                                choose_elements_per_segment, choose_n_modes, ffr_static_correction)
+from flexfmu.model_size import (MAX_ELEMENTS_PER_SEGMENT, SAFETY_FACTOR, ModelChoice, StaticCorrection, TruncationChoice,
+                                check_band, choose_elements_per_segment, ffr_load_patterns, ffr_static_correction,
+                                ffr_truncation_errors)
 from flexfmu.scene import check_arc_length, load_scene
 from flexfmu.vec3 import cross as _cross
 from flexfmu.vec3 import skew as _skew
@@ -45,6 +48,8 @@ _NO_ROTATION = BaseMotion()
 INTEGRATORS = ("exact", "rk4")
 #: RK4 sub-steps stay at or below this fraction of the stability limit (margin for the damping terms).
 RK4_STEP_FRACTION = 0.9
+#: n_modes = -1: more modes are computed until the bound on the uncomputed ones is below this part of tolerance.
+TAIL_FRACTION = 0.1
 
 
 @dataclass(frozen=True)
@@ -111,6 +116,32 @@ def _lowest_modes(model, n_wanted: int, f_max: float | None = None):
     return modes
 
 
+def _truncated_modes(model, cfg: FFRBeamConfig, load_s: float, sensor_s: float, mesh_choice):
+    """(n_modes, modes computed, TruncationChoice, TruncationEstimate) for n_modes = -1 on ``model``: at least the modes below
+    f_max (their converged frequencies when the mesh was chosen), then the fewest whose estimated dynamic
+    truncation error of tip_u and sensor_u is within tolerance (Eq. (E) of flexfmu.model_size), computed
+    from the lowest modes in doubling batches (the rest bounded by their static residual)."""
+    first = solve_modes(model.K_free, model.M_free, 1)
+    probe = FFRBeamDynamics(model, first, cfg.damping_ratio, load_s, sensor_s)   # load patterns and points
+    patterns = ffr_load_patterns(probe)
+    points = {"tip_u": probe.tip, "sensor_u": probe.sensor}
+    k = min(model.n_free, 16)
+    while True:
+        modes = solve_modes(model.K_free, model.M_free, k)
+        below = (mesh_choice.n_below_f_max if mesh_choice is not None
+                 else int(np.count_nonzero(modes.frequencies_hz < cfg.f_max)))
+        if below < k or k == model.n_free:
+            estimate = ffr_truncation_errors(model, modes, patterns, points, cfg.f_max, cfg.damping_ratio)
+            n_modes = estimate.smallest(cfg.tolerance / SAFETY_FACTOR, at_least=max(1, min(below, k)))
+            # decided once the modes beyond those computed (bounded together, errors[k]) are well within it
+            settled = estimate.errors[-1] <= TAIL_FRACTION * cfg.tolerance
+            if n_modes is not None and ((n_modes < k and settled) or k == model.n_free):
+                return n_modes, modes, TruncationChoice(
+                    n_below_f_max=below, error=float(estimate.errors[n_modes]), worst=estimate.worst[n_modes],
+                    static_residual=float(estimate.static_residual[n_modes])), estimate
+        k = min(2 * k, model.n_free)
+
+
 @lru_cache(maxsize=8)
 def _build(cfg: FFRBeamConfig) -> _Built:
     """Model, modes and dynamics for a configuration; cached, since instances of one FMU share them."""
@@ -120,20 +151,34 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     sensor_s = check_arc_length(scene, cfg.sensor_s, "sensor_s")
     require(len(boundary_clamps(scene, cfg.boundary)) > 0, "boundary",
             f"{cfg.boundary!r} clamps nothing in scene {scene.name}", "a boundary with at least one clamp")
-    mesh_choice = None
+    mesh_choice, truncation = None, None
     n_el = int(cfg.elements_per_segment)
+    extra = (load_s, sensor_s)
     if n_el == 0:
         mesh_choice = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
-                                                  extra_arc_lengths=(load_s, sensor_s), min_modes=max(cfg.n_modes, 1))
+                                                  extra_arc_lengths=extra, min_modes=max(cfg.n_modes, 1))
         n_el = mesh_choice.elements_per_segment
-    model = build_beam_model(scene, cfg.boundary, n_el, extra_arc_lengths=(load_s, sensor_s))
+    model = build_beam_model(scene, cfg.boundary, n_el, extra_arc_lengths=extra)
     if cfg.n_modes == -1:
-        if mesh_choice is not None:     # the modes whose *converged* frequency is below f_max
-            n_modes = max(1, mesh_choice.n_below_f_max)
-            modes = _lowest_modes(model, max(n_modes + 1, N_REPORTED_FREQUENCIES))
-        else:
-            modes = _lowest_modes(model, N_REPORTED_FREQUENCIES, cfg.f_max)
-            n_modes = choose_n_modes(modes.frequencies_hz, cfg.f_max)
+        # Modes below f_max, then more until the dynamic truncation error (flexfmu.model_size Eq. (E)) is
+        # within tolerance; with the mesh chosen, the mesh is then re-chosen so that every *retained*
+        # frequency is resolved to the tolerance (docs/model_size.md: looser allowances for the modes above
+        # f_max failed the response test), and the modes again on that mesh (settles in one or two rounds:
+        # the mesh only grows).
+        for _ in range(4):
+            n_modes, modes, truncation, _ = _truncated_modes(model, cfg, load_s, sensor_s, mesh_choice)
+            if mesh_choice is None:
+                break
+            finer = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
+                                                extra_arc_lengths=extra, min_modes=n_modes)
+            if finer.elements_per_segment <= n_el:
+                if finer.elements_per_segment == n_el:
+                    mesh_choice = finer
+                break
+            mesh_choice, n_el = finer, finer.elements_per_segment
+            model = build_beam_model(scene, cfg.boundary, n_el, extra_arc_lengths=extra)
+        modes = _lowest_modes(model, max(n_modes + 1, N_REPORTED_FREQUENCIES)) if modes.shapes.shape[1] < min(
+            max(n_modes + 1, N_REPORTED_FREQUENCIES), model.n_free) else modes
     else:
         n_modes = int(cfg.n_modes)
         require(n_modes <= model.n_free, "n_modes", f"got {n_modes}", f"1 .. {model.n_free} (free DOFs)")
@@ -151,7 +196,7 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     choice = ModelChoice(f_max=float(cfg.f_max), tolerance=float(cfg.tolerance), elements_per_segment=n_el,
                          mesh=mesh_choice, n_modes=n_modes, modes_chosen=cfg.n_modes == -1,
                          frequencies_hz=modes.frequencies_hz[:n_modes + 1].copy(), n_free=model.n_free,
-                         static_correction=corrected)
+                         static_correction=corrected, truncation=truncation)
     return _Built(dynamics, reported, choice, correction)
 
 
@@ -378,12 +423,14 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "boundary": ("", "clamps: XFF | XFX | FXF (first corner) | FXF_mid (mid segment 2) | scene"),
     "elements_per_segment": ("", "beam elements per polyline segment, 1 .. 512; 0 = choose: the fewest whose "
                              "frequencies below f_max are within tolerance of the converged ones"),
-    "n_modes": ("", "retained modes, 1 .. number of free DOFs; -1 = choose: every mode below f_max"),
+    "n_modes": ("", "retained modes, 1 .. number of free DOFs; -1 = choose: every mode below f_max and more above "
+                "it until the estimated dynamic truncation error of tip_u and sensor_u is within tolerance"),
     "damping_ratio": ("", "modal damping ratio of every retained mode, 0 <= zeta < 1"),
     "load_s": ("m", "arc length of the load point from the first point; -1 = the last point"),
     "sensor_s": ("m", "arc length of the sensor (accelerometer) point"),
     "f_max": ("Hz", "highest frequency of interest, for n_modes = -1 and elements_per_segment = 0 (> 0)"),
-    "tolerance": ("", "relative frequency error allowed when elements_per_segment = 0, 1e-6 .. 0.1"),
+    "tolerance": ("", "relative error allowed, 1e-6 .. 0.1: of the retained frequencies when elements_per_segment = 0, "
+                  "of the displacement outputs' modal truncation when n_modes = -1"),
     "static_correction": ("", "residual flexibility of the omitted modes in sensor_u, tip_u and elastic_energy "
                           "(exact quasi-static deflection): -1 = on when n_modes = -1, 0 = off, 1 = on"),
     "integrator": ("", "exact (zero-order-hold matrix exponential, any step) | rk4 (classical RK4, sub-stepped "

@@ -22,13 +22,31 @@ Given a frequency band of interest (0 .. f_max) and a relative tolerance:
   of the double-L): where the estimated error stops halving per doubling the tolerance is declared
   unreachable (round-off), as it is when it would take more than max_elements_per_segment.
 
-* **Number of modes**: every mode whose converged frequency is below f_max, at least one (a model
-  without modes has no dynamics).  A mode above f_max is omitted; with the static correction its
-  quasi-static part is kept exactly and what is lost is its dynamic amplification: for input at
-  frequency f the omitted mode j responds with 1 / (1 - r^2), r = f / f_j, of its static
-  contribution, so the relative error of the corrected model in that mode's share is
-  r^2 / (1 - r^2) (r = 1/2: 33 %; r = 1/10: 1 %).  For the response to be accurate to
-  `tolerance` up to a frequency f, choose f_max >= f * sqrt(1 + 1 / tolerance).
+* **Number of modes** (mode-acceleration truncation estimate): every mode below f_max, and then
+  more, until the estimated *dynamic* truncation error of the displacement outputs is at most
+  `tolerance`.  With the static correction an omitted mode j keeps its quasi-static share exactly;
+  what is lost is its dynamic amplification.  For a harmonic input at f <= f_max the omitted mode
+  responds with H(r) = 1 / (1 - r^2 + 2 i zeta r), r = f / f_j, times its static contribution, the
+  correction supplies 1, so the error is
+
+      A(r) = |H(r) - 1| = |r^2 - 2 i zeta r| / |1 - r^2 + 2 i zeta r|   (~ r^2 / (1 - r^2)),   (A)
+
+  largest at f = f_max (mode-acceleration method: R. R. Craig Jr. & A. J. Kurdila, Fundamentals of
+  Structural Dynamics, 2nd ed., Wiley 2006, the mode-superposition chapter: mode-displacement vs
+  mode-acceleration solutions).  For an output point o and a group of load patterns g (force,
+  moment, ...) the static contribution of mode j is the rank-one matrix
+  c_j = (o phi_j)(phi_j^T g) / omega_j^2; relative to the full static response Y = o K^-1 g
+  (spectral norms) the estimated error of keeping the first m modes is
+
+      e(m) = max_{o, g} | sum_{j > m} c_j (H(f_max / f_j) - 1) | / |Y|                   (E)
+
+  the exact steady-state error of the mode-acceleration model for a harmonic load at f_max.
+  Modes beyond those computed are bounded together by the norm of the static residual that the
+  computed modes leave, times A at the highest computed frequency.  n_modes is the fewest with
+  SAFETY_FACTOR * e(m) <= tolerance (pulses are not band-limited and leave the omitted modes
+  ringing, which the steady-state (E) does not contain).  The mesh then resolves every retained
+  frequency to the tolerance (docs/model_size.md: why not a looser one above f_max).
+  See :func:`truncation_errors`.
 
 * **Static correction** (mode-acceleration method / residual flexibility): the free-DOF
   displacement is q = Phi eta + R f with the residual flexibility
@@ -122,6 +140,95 @@ def richardson(coarse_hz: np.ndarray, fine_hz: np.ndarray, order: int = CONVERGE
 def choose_n_modes(frequencies_hz, f_max: float) -> int:
     """Number of modes to retain: all below f_max (Hz), at least one."""
     return max(1, int(np.count_nonzero(np.asarray(frequencies_hz) < f_max)))
+
+
+def dynamic_error_factor(frequencies_hz, f_max: float, damping_ratio: float = 0.0) -> np.ndarray:
+    """A(f_max / f_j) of Eq. (A) per mode: the dynamic error, relative to its static contribution, of a mode
+    represented only by its static (mode-acceleration) part; inf for modes at or below f_max (they must be
+    retained)."""
+    f = np.asarray(frequencies_hz, float)
+    r = f_max / np.maximum(f, 1e-300)
+    zeta = float(damping_ratio)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.abs(r**2 - 2j * zeta * r) / np.abs(1.0 - r**2 + 2j * zeta * r)
+    return np.where(f > f_max, a, np.inf)
+
+
+@dataclass(frozen=True)
+class TruncationEstimate:
+    """Estimated dynamic truncation error, Eq. (E), of keeping the first m of the computed modes.
+
+    errors[m] (m = 0 .. n computed): worst over output points and load groups; worst[m]: which pair
+    ("output under group"); static_residual[m]: the relative static share the first m modes miss (worst
+    pair), which the static correction supplies."""
+
+    errors: np.ndarray
+    worst: tuple
+    static_residual: np.ndarray
+
+    def smallest(self, tolerance: float, at_least: int = 1) -> int | None:
+        """Fewest modes (>= at_least) whose estimated error is <= tolerance; None if the computed modes
+        do not reach it."""
+        ok = np.nonzero(self.errors[at_least:] <= tolerance)[0]
+        return int(ok[0]) + at_least if ok.size else None
+
+
+def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, static_full, f_max: float,
+                      damping_ratio: float = 0.0, ritz_residual: bool = False) -> TruncationEstimate:
+    """Eq. (E) for every number of retained modes m = 0 .. n (the n computed modes).
+
+    output_modal: {output name: (3, n) displacement of the output point per mode}; load_modal: {group name:
+    (n, k) modal loads phi_j^T g}; eigenvalues omega_j^2 (n,); static_full: {(output, group): (3, k) full
+    static response o K^-1 g} (its part that the n modes miss is the tail, bounded with A at the highest
+    computed frequency).  ritz_residual: the static correction is a set of Ritz vectors (ReframeBody) rather
+    than mode acceleration: those respond dynamically at their Rayleigh frequency, which is at least the
+    first omitted mode's, so the static residual share times A(f_max / f_{m+1}) is added."""
+    lam = np.asarray(eigenvalues, float)
+    f = np.asarray(frequencies_hz, float)
+    n = lam.size
+    factor = dynamic_error_factor(f, f_max, damping_ratio)
+    r = f_max / np.maximum(f, 1e-300)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        excess = 1.0 / (1.0 - r**2 + 2j * float(damping_ratio) * r) - 1.0     # H(r) - 1, Eq. (A)
+    tail_factor = float(dynamic_error_factor([f[-1]], f_max, damping_ratio)[0]) if n else np.inf
+    next_factor = np.append(factor, tail_factor)          # A of the first omitted mode, m = 0 .. n
+    errors = np.full(n + 1, -1.0)
+    residual_worst = np.zeros(n + 1)
+    worst = [""] * (n + 1)
+    for out_name, a in output_modal.items():
+        for group, b in load_modal.items():
+            Y = np.asarray(static_full[(out_name, group)], float)
+            scale = np.linalg.norm(Y, 2)
+            contrib = (a / lam) @ b                        # all n modes' static response
+            if not scale > 1e-14 * max(np.linalg.norm(contrib, 2), 1e-300):
+                continue                                   # no static response of this output to this group
+            tail = np.linalg.norm(Y - contrib, 2) / scale * tail_factor
+            # |sum_{j > m} c_j (H_j - 1)|: the omitted modes' error matrix at f = f_max, summed from the top
+            e = np.zeros(n + 1)
+            e[n] = tail
+            error_matrix = np.zeros(Y.shape, complex)
+            for j in range(n - 1, -1, -1):
+                if not np.isfinite(factor[j]):
+                    e[:j + 1] = np.inf
+                    break
+                error_matrix += np.outer(a[:, j] / lam[j], b[j]) * excess[j]
+                e[j] = np.linalg.norm(error_matrix, 2) / scale + tail
+            # static residual share after m modes: |Y - sum_{j <= m} c_j| / |Y| (exact matrices, no bound)
+            partial = np.zeros_like(Y)
+            res = [np.linalg.norm(Y, 2) / scale]
+            for j in range(n):
+                partial += np.outer(a[:, j] / lam[j], b[j])
+                res.append(np.linalg.norm(Y - partial, 2) / scale)
+            res = np.array(res)
+            if ritz_residual:
+                with np.errstate(invalid="ignore"):
+                    e = np.where(np.isinf(e), np.inf, e + res * next_factor)
+            for m in range(n + 1):
+                if e[m] > errors[m] or (np.isinf(e[m]) and not worst[m]):
+                    errors[m], worst[m] = e[m], f"{out_name} under {group}"
+                residual_worst[m] = max(residual_worst[m], res[m])
+    errors = np.where(errors < 0, 0.0, errors)
+    return TruncationEstimate(errors=errors, worst=tuple(worst), static_residual=residual_worst)
 
 
 def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, tolerance: float, *,
@@ -262,6 +369,31 @@ def ffr_load_patterns(dynamics) -> np.ndarray:
                       rotation])
 
 
+#: The load groups of Eq. (*) whose truncation error is estimated (columns of ffr_load_patterns).
+FFR_LOAD_GROUPS = {"F": slice(0, 3), "M": slice(3, 6), "base_a": slice(6, 9), "base rotation": slice(9, 18)}
+
+
+def ffr_truncation_errors(model, modes, patterns: np.ndarray, points: dict, f_max: float,
+                          damping_ratio: float) -> TruncationEstimate:
+    """Eq. (E) for an FFR beam: the displacement outputs ``points`` ({name: PointShape}, e.g. tip_u and
+    sensor_u) under the load groups of Eq. (*) (``patterns`` = :func:`ffr_load_patterns`, all DOFs), for
+    the computed ``modes`` (free DOFs, mass-normalised) of ``model``; the full static responses from one
+    sparse LU of K."""
+    free = model.B2.T @ patterns
+    static = spla.splu(sp.csc_matrix(model.K_free)).solve(free)
+    shapes = np.asarray(modes.shapes, float)
+    lam = modes.omega**2
+    n = model.n_dof
+    output_modal, static_full = {}, {}
+    load_modal = {g: shapes.T @ free[:, cols] for g, cols in FFR_LOAD_GROUPS.items()}
+    for name, point in points.items():
+        rows = point.full_translation(n) @ model.B2
+        output_modal[name] = np.asarray(rows @ shapes)
+        for g, cols in FFR_LOAD_GROUPS.items():
+            static_full[(name, g)] = np.asarray(rows @ static[:, cols])
+    return truncation_errors(output_modal, load_modal, lam, modes.frequencies_hz, static_full, f_max, damping_ratio)
+
+
 @dataclass
 class StaticCorrection:
     """Residual-flexibility terms of the outputs for the load vector z = [F, M, a0, X_ab (9)] (18,):
@@ -291,6 +423,18 @@ def ffr_static_correction(dynamics) -> StaticCorrection:
 
 # ---------------------------------------------------------------------------------------------- the report
 @dataclass(frozen=True)
+class TruncationChoice:
+    """Why n_modes = -1 kept the modes it kept: n_below_f_max of them lie below f_max; the estimated dynamic
+    truncation error (Eq. (E)) of the retained set, the output and load group it comes from, and the static
+    share of the omitted modes that the static correction supplies."""
+
+    n_below_f_max: int
+    error: float
+    worst: str
+    static_residual: float
+
+
+@dataclass(frozen=True)
 class ModelChoice:
     """What an FFR beam model retains and why; ``message()`` is what the FMU logs.
 
@@ -307,6 +451,7 @@ class ModelChoice:
     frequencies_hz: np.ndarray
     n_free: int
     static_correction: bool
+    truncation: TruncationChoice | None = None
 
     def message(self) -> str:
         band = (f" (f_max = {self.f_max:g} Hz, tolerance = {self.tolerance:g})" if self.mesh is not None
@@ -316,8 +461,11 @@ class ModelChoice:
         if mesh is None:
             parts.append(f"elements_per_segment = {self.elements_per_segment} (given);")
         else:
+            which = f"{len(mesh.relative_errors)} frequencies below f_max"
+            if self.truncation is not None and len(mesh.relative_errors) > mesh.n_below_f_max:
+                which = f"{len(mesh.relative_errors)} retained frequencies"
             why = (f"elements_per_segment = {mesh.elements_per_segment} (chosen: estimated relative error of the "
-                   f"{len(mesh.relative_errors)} frequencies below f_max at most {mesh.worst_error:.2e} (mode "
+                   f"{which} at most {mesh.worst_error:.2e} (mode "
                    f"{mesh.worst_mode}, {mesh.chosen_hz[mesh.worst_mode - 1]:.6g} Hz), x{mesh.safety_factor:g} "
                    f"safety = {mesh.safety_factor * mesh.worst_error:.2e} <= {mesh.tolerance:g}; h^{mesh.order} "
                    f"Richardson reference from {mesh.reference_meshes[0]}/{mesh.reference_meshes[1]} elements")
@@ -326,12 +474,23 @@ class ModelChoice:
                 why += (f"; {n_rej} element{'s' if n_rej > 1 else ''} per segment: error {mesh.rejected[1]:.2e}, "
                         "rejected")
             parts.append(why + ");")
-        retained = ", ".join(f"{f:.6g}" for f in self.frequencies_hz[:self.n_modes])
+        shown = self.frequencies_hz[:self.n_modes]
+        if self.truncation is not None and self.n_modes > max(self.truncation.n_below_f_max, 6) + 1:
+            head = shown[:max(self.truncation.n_below_f_max, 6)]       # long lists: the band, then the last
+            retained = ", ".join(f"{f:.6g}" for f in head) + f", ..., {shown[-1]:.6g}"
+        else:
+            retained = ", ".join(f"{f:.6g}" for f in shown)
         omitted = self.frequencies_hz[self.n_modes:]
         nxt = f"; first omitted {omitted[0]:.6g} Hz" if omitted.size else "; no mode omitted"
         how = "chosen: every mode below f_max" if self.modes_chosen else "given"
         if self.modes_chosen and not np.any(self.frequencies_hz[:1] < self.f_max):
             how = "chosen: no mode below f_max, the fundamental kept"
+        tr = self.truncation
+        if tr is not None:
+            how = (f"chosen: the {tr.n_below_f_max} mode{'s' if tr.n_below_f_max != 1 else ''} below f_max and "
+                   f"{self.n_modes - tr.n_below_f_max} above, until the estimated dynamic truncation error of tip_u "
+                   f"and sensor_u (mode acceleration, omitted modes amplified as at f_max) is {tr.error:.2e}, "
+                   f"x{SAFETY_FACTOR:g} safety <= {self.tolerance:g}, worst: {tr.worst}")
         parts.append(f"n_modes = {self.n_modes} of {self.n_free} ({how}: {retained} Hz{nxt});")
         if self.static_correction:
             parts.append(f"static correction on (residual flexibility of the {self.n_free - self.n_modes} omitted "

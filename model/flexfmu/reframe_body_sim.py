@@ -16,14 +16,19 @@ internal steps (one kernel call).  ``internal_step`` > 0 is the longest internal
 The messages list collects what was chosen and why (model size with ``n_flexible_modes = -1``, the
 internal step and its reason, logged once and again when it changes); the FMU logs them (status OK).
 
-``n_flexible_modes = -1`` chooses the model: every flexible mode up to ``f_max`` (Hz), then a static
-correction: if the static deflection of the load point under a unit force (and, on 6-DOF models, a
-unit moment) from these modes differs from the full model's (inertia relief, one sparse solve) by more
-than ``tolerance`` (relative, worst direction), the residual flexibility of the load point is added
-as up to 6 extra Ritz vectors (mode-acceleration / residual-flexibility method: the exact static
-deflections minus their modal part, M-orthonormalised and K-diagonalised), so the static deflection
-under loads at the load point is exact.  They are stiff (Rayleigh frequencies well above f_max): pair
-them with scheme "exponential".
+``n_flexible_modes = -1`` chooses the model: every flexible mode up to ``f_max`` (Hz), then more, until the
+estimated dynamic truncation error (flexfmu.model_size Eq. (E): omitted modes' static shares times their
+dynamic amplification at f_max, mode-acceleration method) of the elastic deflection of the load point and
+of the output point, under a force (and, on 6-DOF models, a moment) at the load point with inertia relief,
+is within ``tolerance`` / 2; then a static correction: if the static deflection of the load or output
+point from these modes differs from the full model's (inertia relief, one sparse solve) by more than
+``tolerance`` (relative, worst direction), the residual flexibility of the load point is added as up to
+6 extra Ritz vectors (residual-flexibility method: the exact static deflections minus their modal part,
+M-orthonormalised and K-diagonalised), so the static deflection under loads at the load point is exact
+everywhere.  The Ritz vectors respond dynamically at their Rayleigh frequency (at least the first omitted
+mode's), which the estimate includes.  They are stiff (Rayleigh frequencies well above f_max): pair
+them with scheme "exponential" (no stability limit; O(nf^2) per step like the modes), with an RK4 scheme
+they set the step limit.
 """
 from __future__ import annotations
 
@@ -37,6 +42,7 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from flexfmu.errors import ParameterError, require
+from flexfmu.model_size import SAFETY_FACTOR, truncation_errors
 from flexfmu.modal_basis import N_RIGID, ModalBasis, modal_basis
 from flexfmu.models import load_model
 from flexfmu.reframe import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, ReframeIntegrator, ReframeState
@@ -137,33 +143,89 @@ def modal_compliance(basis: ModalBasis, rows) -> np.ndarray:
     return (Phi / basis.stiffness[N_RIGID:]) @ Phi.T
 
 
-def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, load_node: int):
-    """(basis, messages) for ``n_flexible_modes = -1``: the flexible modes up to f_max (Hz) plus, if the
-    load point's static deflection from them is more than ``tolerance`` off the full model's, the residual
-    flexibility vectors of the load point (module docstring)."""
+def reframe_truncation_errors(structure, basis: ModalBasis, U: np.ndarray, load_rows, output_rows, f_max: float,
+                              damping_ratio: float):
+    """Eq. (E) of flexfmu.model_size for a free body: the elastic displacement of the load point and of the output
+    point (translations) under a force (and, on 6-DOF models, a moment) at the load point, inertia-relieved;
+    U = :func:`static_deflections` for the load rows gives the full static responses (the modes beyond those
+    computed are bounded by the residual they leave).  The static correction of ReframeBody is a set of Ritz
+    vectors, which respond at their Rayleigh frequency: ``ritz_residual`` (see truncation_errors)."""
+    load_rows = np.asarray(load_rows)
+    Phi = basis.shapes[:, N_RIGID:]
+    groups = {"force": slice(0, 3)}
+    if load_rows.size == 6:
+        groups["moment"] = slice(3, 6)
+    points = {"load point": load_rows[:3], "output point": np.asarray(output_rows)[:3]}
+    output_modal = {name: Phi[rows] for name, rows in points.items()}
+    load_modal = {g: Phi[load_rows[cols]].T for g, cols in groups.items()}
+    static_full = {(name, g): U[rows][:, cols] for name, rows in points.items() for g, cols in groups.items()}
+    return truncation_errors(output_modal, load_modal, basis.stiffness[N_RIGID:], basis.frequencies_hz, static_full,
+                             f_max, damping_ratio, ritz_residual=True)
+
+
+def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, load_node: int,
+               output_node: int | None = None):
+    """(basis, messages) for ``n_flexible_modes = -1``: the flexible modes up to f_max (Hz), then more until the
+    estimated dynamic truncation error of the load and output points' deflection is within ``tolerance``
+    (flexfmu.model_size Eq. (E), with the residual vectors' own dynamics), plus, if the static deflection of the
+    load or output point under loads at the load point from these modes is more than ``tolerance`` off the full
+    model's, the residual flexibility vectors of the load point (module docstring)."""
+    output_node = load_node if output_node is None else output_node
     n_max = min(structure.n_dof - N_RIGID, MAX_AUTO_MODES)
-    n_try = min(8, n_max)
+    rows = load_point_rows(structure, load_node)
+    out_rows = load_point_rows(structure, output_node)[:3]
+    zeta = float(np.atleast_1d(damping_ratio)[0])
+    n_try, U = min(8, n_max), None
     while True:
         full = modal_basis(structure, n_try, damping_ratio)
-        if n_try >= n_max or (n_try and full.frequencies_hz[-1] > f_max):
+        freqs = full.frequencies_hz
+        if U is None and n_try:
+            U = static_deflections(structure, full, rows)
+        n_below = int(np.count_nonzero(freqs <= f_max))
+        estimate, n_keep = None, None
+        if n_try and (n_below < n_try or n_try >= n_max):
+            estimate = reframe_truncation_errors(structure, full, U, rows, out_rows, f_max, zeta)
+            n_keep = estimate.smallest(tolerance / SAFETY_FACTOR, at_least=n_below)
+        settled = estimate is not None and estimate.errors[-1] <= 0.1 * tolerance   # uncomputed modes' bound
+        if n_try >= n_max or (n_keep is not None and n_keep < n_try and settled):
             break
         n_try = min(2 * n_try, n_max)
-    freqs = full.frequencies_hz
-    n_keep = int(np.count_nonzero(freqs <= f_max))
+    if n_keep is None:                                   # the cap reached: keep all computed
+        n_keep = n_try
     basis = _select(full, n_keep)
-    shown = ", ".join(f"{f:.4g}" for f in freqs[:n_keep][:6]) + (", ..." if n_keep > 6 else "")
-    msgs = [f"n_flexible_modes = -1: kept the {n_keep} flexible mode(s) up to f_max = {f_max:g} Hz"
-            + (f" ({shown} Hz)" if n_keep else "")
+    kept = freqs[:n_keep]
+    shown = ", ".join(f"{f:.4g}" for f in kept[:6]) + (f", ..., {kept[-1]:.4g}" if n_keep > 6 else "")
+    if estimate is not None:
+        met = SAFETY_FACTOR * estimate.errors[n_keep] <= tolerance
+        why = (f"the {n_below} up to f_max = {f_max:g} Hz and {n_keep - n_below} above, "
+               + ("until" if met else "all computed (limit); NOT within tolerance:")
+               + " the estimated dynamic truncation error of the load and output points' deflection (mode "
+               f"acceleration, omitted modes and residual vectors amplified as at f_max) is {estimate.errors[n_keep]:.2g}"
+               f", x{SAFETY_FACTOR:g} safety {'<=' if met else '>'} {tolerance:g}, worst: {estimate.worst[n_keep]}")
+    else:
+        why = f"every mode up to f_max = {f_max:g} Hz"
+    msgs = [f"n_flexible_modes = -1: kept {n_keep} flexible mode(s) ({why})" + (f": {shown} Hz" if n_keep else "")
             + (f"; the next is at {freqs[n_keep]:.4g} Hz" if n_keep < freqs.size else
                f"; limit of {MAX_AUTO_MODES} modes reached" if n_keep == MAX_AUTO_MODES else "")]
-    rows = load_point_rows(structure, load_node)
-    U = static_deflections(structure, full, rows)
+    if U is None:
+        return basis, msgs
     C_full = U[rows]
     C_full = 0.5 * (C_full + C_full.T)
-    err = _static_error(C_full, modal_compliance(basis, rows), 3)
+    C_out = U[out_rows]
+
+    def static_error(b):
+        load_err = _static_error(C_full, modal_compliance(b, rows), 3)
+        Phi_o, Phi_l = b.shapes[out_rows, N_RIGID:], b.shapes[np.asarray(rows), N_RIGID:]
+        modal_out = (Phi_o / b.stiffness[N_RIGID:]) @ Phi_l.T
+        out_err = max(np.linalg.norm(modal_out[:, sl] - C_out[:, sl], 2) / max(np.linalg.norm(C_out[:, sl], 2), 1e-300)
+                      for sl in (slice(0, 3), slice(3, len(rows))) if C_out[:, sl].size)
+        return max(load_err, out_err)
+
+    err = static_error(basis)
     if err <= tolerance:
-        msgs.append(f"static deflection of the load point (node {load_node}) from these modes is within "
-                    f"{err:.2g} of the full model's (tolerance {tolerance:g}): no static correction")
+        msgs.append(f"static deflection of the load point (node {load_node}) and the output point (node {output_node}) "
+                    f"from these modes is within {err:.2g} of the full model's (tolerance {tolerance:g}): no static "
+                    "correction")
         return basis, msgs
     M, K = structure.M, structure.K
     Phi = basis.shapes
@@ -184,8 +246,9 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
         frequencies_hz=np.concatenate([basis.frequencies_hz, wr / (2 * np.pi)]),
         stiffness=np.concatenate([basis.stiffness, lam]), damping=np.concatenate([basis.damping, 2 * zeta * wr]),
         damping_ratio=np.concatenate([basis.damping_ratio, np.full(lam.size, zeta)]), method=basis.method + "+static")
-    err_after = _static_error(C_full, modal_compliance(corrected, rows), 3)
-    msgs.append(f"static deflection of the load point (node {load_node}) from these modes is {err:.2g} off the full "
+    err_after = static_error(corrected)
+    msgs.append(f"static deflection of the load point (node {load_node}) or the output point (node {output_node}) "
+                f"from these modes is {err:.2g} off the full "
                 f"model's (> tolerance {tolerance:g}): added {lam.size} residual-flexibility vectors (static "
                 f"correction; Rayleigh frequencies {', '.join(f'{f:.4g}' for f in wr / (2 * np.pi))} Hz); static "
                 f"deflection error now {err_after:.1g}; {n_keep + lam.size} flexible coordinates")
@@ -199,7 +262,7 @@ def _structure(model: str):
 
 @lru_cache(maxsize=4)
 def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme: str, f_max=None, tolerance=None,
-                load_node=None):
+                load_node=None, output_node=None):
     """(integrator, messages): model, modes and integrator set-up, shared by instances (``advance`` does not
     touch its state).  f_max, tolerance, load_node only for n_flexible_modes = -1 (None otherwise)."""
     require(scheme in SCHEMES, "scheme", f"got {scheme!r}", " | ".join(SCHEMES))
@@ -209,16 +272,16 @@ def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme:
     require(isinstance(n_flexible_modes, (int, np.integer)) and -1 <= n_flexible_modes <= structure.n_dof - 6,
             "n_flexible_modes", f"got {n_flexible_modes!r}",
             f"-1 (choose from f_max, tolerance) or 0 .. {structure.n_dof - 6}")
-    basis, msgs = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node)
+    basis, msgs = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node, output_node)
     return ReframeIntegrator(structure, basis, scheme=scheme), msgs
 
 
 @lru_cache(maxsize=4)
-def _basis(model: str, n_flexible_modes: int, damping_ratio: float, f_max, tolerance, load_node):
+def _basis(model: str, n_flexible_modes: int, damping_ratio: float, f_max, tolerance, load_node, output_node=None):
     """(basis, messages), shared by the schemes."""
     structure = _structure(model)
     if n_flexible_modes == -1:
-        basis, msgs = auto_basis(structure, f_max, tolerance, damping_ratio, load_node)
+        basis, msgs = auto_basis(structure, f_max, tolerance, damping_ratio, load_node, output_node)
     else:
         basis, msgs = modal_basis(structure, n_flexible_modes, damping_ratio), []
     return basis, tuple(msgs)
@@ -237,13 +300,14 @@ class ReframeBodySimulator:
                 "0 < tolerance < 1 (relative)")
         self.messages: list[str] = []
         auto = isinstance(c.n_flexible_modes, (int, np.integer)) and c.n_flexible_modes == -1
-        load_node = None
+        load_node = output_node = None
         if auto:
             structure = _structure(c.model)
-            load_node = int(np.argmin(np.linalg.norm(structure.nodes - np.array(
-                [c.load_point_x, c.load_point_y, c.load_point_z]), axis=1)))
+            load_node, output_node = (int(np.argmin(np.linalg.norm(structure.nodes - np.array(p), axis=1))) for p in (
+                (c.load_point_x, c.load_point_y, c.load_point_z), (c.output_point_x, c.output_point_y, c.output_point_z)))
         self.integrator, msgs = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme,
-                                            c.f_max if auto else None, c.tolerance if auto else None, load_node)
+                                            c.f_max if auto else None, c.tolerance if auto else None, load_node,
+                                            output_node)
         integ = self.integrator
         self.messages.extend(msgs)
         omega_max = integ.data.omega_max
@@ -409,12 +473,13 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "model": ("", "paper_plate | beam:<scene> (free-free bent rod) | path to a .npz structure file"),
     "scheme": ("", "exponential (default: exact in the modes' linear part, no RK4 stability limit) | consistent (RK4) | "
                    "paper (the printed scheme, first order)"),
-    "n_flexible_modes": ("", "retained flexible modes; 0 = a rigid body; -1 = choose: the modes up to f_max plus a "
-                             "static correction of the load point if needed (tolerance)"),
-    "f_max": ("Hz", "n_flexible_modes = -1: keep every flexible mode up to this frequency"),
-    "tolerance": ("", "n_flexible_modes = -1: allowed relative static-deflection error of the load point before "
-                      "residual-flexibility vectors are added; scheme exponential with internal_step = 0: "
-                      "rotation per internal step <= 0.5 tolerance^(1/4) rad"),
+    "n_flexible_modes": ("", "retained flexible modes; 0 = a rigid body; -1 = choose: the modes up to f_max and more "
+                             "until the estimated dynamic truncation error of the load and output points is within "
+                             "tolerance, plus a static correction of the load point if needed"),
+    "f_max": ("Hz", "n_flexible_modes = -1: highest input frequency of interest (every flexible mode up to it is kept)"),
+    "tolerance": ("", "n_flexible_modes = -1: allowed relative truncation error of the load and output points' "
+                      "deflection (dynamic, and static before residual-flexibility vectors are added); scheme "
+                      "exponential with internal_step = 0: rotation per internal step <= 0.5 tolerance^(1/4) rad"),
     "damping_ratio": ("", "modal damping ratio of every flexible mode, 0 <= zeta < 1"),
     "internal_step": ("s", "longest internal step; 0 = automatic (RK4 schemes: 90% of the stability limit, "
                            "sub-stepping a longer communication step; exponential: by accuracy)"),
