@@ -40,7 +40,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from flexfmu.errors import FlexfmuError  # noqa: E402
-from flexfmu.modal_basis import modal_basis  # noqa: E402
+from flexfmu.modal_basis import mass_properties, modal_basis  # noqa: E402
 from flexfmu.models import load_model  # noqa: E402
 from flexfmu.reframe import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator  # noqa: E402
 
@@ -61,31 +61,10 @@ def beam(elements_per_segment: int = BEAM_ELEMENTS):
 
 
 def principal_axes(structure):
-    """Principal moments (ascending) and axes (columns) of the rigid body, from M and the nodes
-    (rigid velocity fields, independent of the modal basis)."""
-    nodes = np.asarray(structure.nodes, float)
-    dpn = structure.dofs_per_node
-    n = nodes.shape[0] * dpn
-    M = structure.M
-
-    def fields(origin):
-        T = np.zeros((n, 3))
-        S = np.zeros((n, 3))
-        for k in range(3):
-            T[k::dpn, k] = 1.0
-            rot = np.cross(np.eye(3)[k], nodes - origin)
-            for j in range(3):
-                S[j::dpn, k] = rot[:, j]
-            if dpn == 6:
-                S[3 + k::dpn, k] = 1.0
-        return T, S
-
-    T, S = fields(np.zeros(3))
-    m = float(np.trace(T.T @ (M @ T))) / 3.0
-    C = T.T @ (M @ S)
-    c = np.array([C[1, 2] - C[2, 1], C[2, 0] - C[0, 2], C[0, 1] - C[1, 0]]) / (2.0 * m)
-    _, S = fields(c)
-    return np.linalg.eigh(S.T @ (M @ S))
+    """Principal moments (ascending) and axes (columns) of the rigid body (flexfmu.modal_basis.mass_properties:
+    from M and the nodes, independent of the modal basis)."""
+    props = mass_properties(structure)
+    return props.principal_moments, props.principal_axes
 
 
 def global_momentum_and_energy(integ, structure, state):
