@@ -21,7 +21,7 @@ def force(t):
 
 
 def run(scheme, h, internal_step=0.0, repeat=1):
-    sim0 = ReframeBodySimulator(ReframeBodyConfig(scheme=scheme, internal_step=internal_step))
+    ReframeBodySimulator(ReframeBodyConfig(scheme=scheme, internal_step=internal_step))   # fills the set-up caches
     n = int(round(T_END / h))
     best = math.inf
     for _ in range(repeat):
