@@ -23,7 +23,14 @@ _KIND = {str: String, int: Integer, float: Real, bool: Boolean}
 class FlexfmuPlumbing:
     """FMI behaviour of one slave.  ``module`` provides the config class, the simulator class (built
     from a config; set_inputs(**), step(h), outputs() -> dict, get_state()/set_state(dict), time),
-    INPUT_NAMES, OUTPUT_NAMES and VARIABLE_INFO {name: (unit, description)}."""
+    INPUT_NAMES, OUTPUT_NAMES and VARIABLE_INFO {name: (unit, description)}.
+
+    Per-step cost (what a master pays per doStep on top of the simulator's own step): inputs and outputs
+    live in plain lists indexed by position; an input setter only marks the inputs changed when the value
+    differs, so the simulator gets its inputs (set_input_vector, else set_inputs) only after a change —
+    every simulator holds its inputs until they are set again, and setting equal values changes nothing;
+    fmi2GetReal / fmi2SetReal go straight to the variables' getters and setters (pythonfmu's own versions
+    check each variable's type on every call; they still handle what is not a Real, for its error)."""
 
     def __init__(self, slave: Fmi2Slave, config_class, simulator_class, module):
         self.slave = slave
@@ -34,27 +41,34 @@ class FlexfmuPlumbing:
         self.variable_info = module.VARIABLE_INFO
         self._sim = None
         self._vector_api = False
-        defaults = asdict(self.config_class())
-        self._values = dict(defaults)
-        self._values.update(dict.fromkeys(self.input_names, 0.0))
-        self._values.update(dict.fromkeys(self.output_names, 0.0))
+        self._values = asdict(self.config_class())          # the parameters
+        self._inputs = [0.0] * len(self.input_names)         # INPUT_NAMES order
+        self._inputs_changed = True                          # not yet given to the simulator
+        self._outputs = [0.0] * len(self.output_names)       # OUTPUT_NAMES order, of the last step
         for field in fields(self.config_class):
-            kind = _KIND[type(defaults[field.name])]
+            kind = _KIND[type(self._values[field.name])]
             self.slave.register_variable(kind(field.name, causality=Fmi2Causality.parameter,
                                         variability=Fmi2Variability.fixed,
                                         description=self.variable_info[field.name][1],
-                                        getter=self._getter(field.name), setter=self._parameter_setter(field.name)))
-        for name in self.input_names:
+                                        getter=self._parameter_getter(field.name),
+                                        setter=self._parameter_setter(field.name)))
+        for i, name in enumerate(self.input_names):
             self.slave.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                                         description=self.variable_info[name][1],
-                                        getter=self._getter(name), setter=self._input_setter(name)))
-        for name in self.output_names:
+                                        getter=self._input_getter(i), setter=self._input_setter(i)))
+        for i, name in enumerate(self.output_names):
             self.slave.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
                                         initial=Fmi2Initial.exact, description=self.variable_info[name][1],
-                                        getter=self._getter(name)))
+                                        getter=self._output_getter(i)))
+        reals = {vr: var for vr, var in self.slave.vars.items() if isinstance(var, Real)}
+        self._real_getters = {vr: var.getter for vr, var in reals.items()}
+        self._real_setters = {vr: var.setter for vr, var in reals.items() if var.setter is not None}
+        # Instance attributes: pythonfmu's binary calls these by name on the slave instance.
+        self.slave.get_real = self.get_real
+        self.slave.set_real = self.set_real
 
     # ---- variable access
-    def _getter(self, name):
+    def _parameter_getter(self, name):
         return lambda: self._values[name]
 
     def _parameter_setter(self, name):
@@ -64,15 +78,58 @@ class FlexfmuPlumbing:
             self._values[name] = value
         return set_parameter
 
-    def _input_setter(self, name):
+    def _input_getter(self, i):
+        return lambda: self._inputs[i]
+
+    def _input_setter(self, i):
+        inputs = self._inputs
+
         def set_input(value):
-            self._values[name] = value
+            if value != inputs[i]:
+                inputs[i] = value
+                self._inputs_changed = True
         return set_input
+
+    def _output_getter(self, i):
+        return lambda: self._outputs[i]
+
+    def get_real(self, vrs):
+        """fmi2GetReal: the values of Real variables ``vrs`` (value references); every Real holds a float."""
+        getters = self._real_getters
+        try:
+            return [getters[vr]() for vr in vrs]
+        except KeyError:          # not a Real: pythonfmu's version raises its TypeError
+            return Fmi2Slave.get_real(self.slave, vrs)
+
+    def set_real(self, vrs, values):
+        """fmi2SetReal of Real variables ``vrs``, in order (as pythonfmu's: those before a bad one are set)."""
+        setters = self._real_setters
+        try:
+            for vr, value in zip(vrs, values):
+                setters[vr](value)
+        except KeyError:          # not a settable Real: pythonfmu's version raises its TypeError
+            Fmi2Slave.set_real(self.slave, vrs, values)
 
     def _fail(self, message: str):
         """Log with fmi2Error status (naming the variable), then fail the call."""
         self.slave.log(message, Fmi2Status.error)
         raise RuntimeError(message)
+
+    def _give_inputs(self):
+        """Hand the inputs to the simulator (after a change only: see the class docstring)."""
+        if self._vector_api:
+            self._sim.set_input_vector(list(self._inputs))     # a copy: the setters change the list in place
+        else:
+            self._sim.set_inputs(**dict(zip(self.input_names, self._inputs)))
+        self._inputs_changed = False
+
+    def _read_outputs(self):
+        sim = self._sim
+        if self._vector_api:
+            self._outputs = sim.output_vector().tolist()
+        else:
+            values = sim.outputs()
+            self._outputs = [float(values[name]) for name in self.output_names]
 
     # ---- FMI calls
     def exit_initialization_mode(self):
@@ -80,11 +137,12 @@ class FlexfmuPlumbing:
         try:
             self._sim = self.simulator_class(config)
             self._vector_api = hasattr(self._sim, "set_input_vector") and hasattr(self._sim, "output_vector")
-            self._sim.set_inputs(**{name: self._values[name] for name in self.input_names})
+            self._sim.set_inputs(**dict(zip(self.input_names, self._inputs)))   # checked, naming each input
+            self._inputs_changed = False
         except FlexfmuError as exc:
             self._fail(str(exc))
         self._log_messages()
-        self._values.update(self._sim.outputs())
+        self._read_outputs()
 
     def _log_messages(self):
         """Log (status OK) and clear what the simulator chose and why (its ``messages`` list, if any):
@@ -98,16 +156,11 @@ class FlexfmuPlumbing:
         if abs(current_time - sim.time) > TIME_RTOL * max(1.0, abs(sim.time)):
             self._fail(f"currentCommunicationPoint: got {current_time!r} s, expected the FMU's time "
                        f"{sim.time!r} s (roll back with setFMUstate to step from another time)")
-        values = self._values
         try:
-            if self._vector_api:     # per-call overhead: inputs and outputs as vectors, no dicts of checks
-                sim.set_input_vector([values[name] for name in self.input_names])
-                sim.step(step_size)
-                values.update(zip(self.output_names, sim.output_vector().tolist()))
-            else:
-                sim.set_inputs(**{name: values[name] for name in self.input_names})
-                sim.step(step_size)
-                values.update(sim.outputs())
+            if self._inputs_changed:
+                self._give_inputs()
+            sim.step(step_size)
+            self._read_outputs()
         except FlexfmuError as exc:
             self._fail(str(exc))
         if getattr(sim, "messages", None):
@@ -116,10 +169,14 @@ class FlexfmuPlumbing:
 
     # ---- whole-state get/set/serialize (registered variables alone would miss the internal state)
     def get_fmu_state(self):
-        return {"values": dict(self._values), "sim": None if self._sim is None else self._sim.get_state()}
+        return {"values": dict(self._values), "inputs": list(self._inputs), "outputs": list(self._outputs),
+                "sim": None if self._sim is None else self._sim.get_state()}
 
     def set_fmu_state(self, state):
         self._values = dict(state["values"])
+        self._inputs[:] = state["inputs"]          # in place: the input setters hold this list
+        self._outputs = list(state["outputs"])
+        self._inputs_changed = True                # the simulator's inputs are those of the state's last step
         if state["sim"] is not None:
             if self._sim is None:
                 self._sim = self.simulator_class(self.config_class(**state["sim"]["config"]))

@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
+import scipy
 import scipy.linalg as sla
+import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from flexfmu import cache as _cache
 from flexfmu.errors import ParameterError
 from flexfmu.io import validate_structure
 from flexfmu.modal import dense_low_modes
@@ -34,6 +38,7 @@ DENSE_LIMIT = 600          # n_dof up to which method="auto" uses dense eigh
 DEFAULT_SIGMA = -1.0       # rad^2/s^2: shift for sparse shift-invert (K - sigma M is then definite)
 RIGID_FORCE_RTOL = 1e-8    # max|K phi_rigid| / max(|K| |phi_rigid|) allowed (free-free check)
 ZERO_EIG_RTOL = 1e-13      # a flexible omega^2 below this times max(K_ii / M_ii) counts as a zero mode
+CACHE_MIN_DOF = 3000       # cache=None: bases of models this large or larger go to the on-disk cache
 
 
 @dataclass(frozen=True)
@@ -222,13 +227,28 @@ def _project_out(Phi: np.ndarray, M, V: np.ndarray) -> np.ndarray:
     return V - Phi @ (Phi.T @ (M @ V))
 
 
+def _shifted_solver(K, M, sigma: float):
+    """x = (K - sigma M)^{-1} b by one SuperLU factorisation (COLAMD column order).
+
+    A reverse Cuthill-McKee order with diagonal pivoting fills 12 % less on the paper plate (51k DOFs)
+    and cuts the modal analysis by a quarter, but moves the round-off of the lowest frequencies by
+    ~2e-9 relative, beyond tests/test_modal_basis.py's dense-sparse rtol of 1e-9 (the double-precision
+    floor of the Rayleigh quotient here: docs/performance_notes.md); kept to SuperLU's default order."""
+    try:
+        lu = spla.splu((K - sigma * M).tocsc())
+    except RuntimeError as exc:
+        raise ParameterError("structure.K", f"K - sigma M cannot be factorised ({exc})",
+                             "K + |sigma| M non-singular: symmetric positive semi-definite K and M") from None
+    return lu.solve
+
+
 def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: float) -> np.ndarray:
     """(n_dof, n) approximate lowest flexible eigenvectors of K phi = lambda M phi.
 
     dense:  flexfmu.modal.dense_low_modes on the full matrices (the inverted problem: eigh(K, M)
             loses ~1e-9 in the low modes through the Cholesky factor of M); the six lowest (rigid)
             eigenvectors are dropped by rigid content.
-    sparse: eigsh in shift-invert mode, (K - sigma M)^{-1} factorised once by SuperLU, with the
+    sparse: eigsh in shift-invert mode, (K - sigma M)^{-1} factorised once (_shifted_solver), with the
             rigid-body subspace deflated: right-hand sides are stripped of their rigid part
             before the solve and results M-projected onto the flexible subspace after it.
             Without deflation the rigid components, amplified by 1/|sigma|, swamp the flexible
@@ -252,16 +272,12 @@ def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: floa
         rigid_content = np.sum((Phi.T @ (M @ V)) ** 2, axis=0)
         return V[:, np.sort(np.argsort(rigid_content)[:n])]
 
-    try:
-        lu = spla.splu((K - sigma * M).tocsc())
-    except RuntimeError as exc:
-        raise ParameterError("structure.K", f"K - sigma M cannot be factorised ({exc})",
-                             "K + |sigma| M non-singular: symmetric positive semi-definite K and M") from None
+    solve = _shifted_solver(K, M, sigma)
     MPhi = np.asarray(M @ Phi)
 
     def op_inv(b):
         b = np.asarray(b).reshape(-1)
-        x = lu.solve(b - MPhi @ (Phi.T @ b))       # rhs without rigid part (P^T b)
+        x = solve(b - MPhi @ (Phi.T @ b))          # rhs without rigid part (P^T b)
         return x - Phi @ (MPhi.T @ x)               # result without rigid part (P x)
 
     OPinv = spla.LinearOperator((n_dof, n_dof), matvec=op_inv, dtype=float)
@@ -271,7 +287,7 @@ def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: floa
 
 
 def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
-                method: str = "auto", sigma: float = DEFAULT_SIGMA) -> ModalBasis:
+                method: str = "auto", sigma: float = DEFAULT_SIGMA, cache: bool | None = None) -> ModalBasis:
     """Rigid-body modes plus the first ``n_flexible`` flexible modes of a free-free structure.
 
     n_flexible:     0 ... n_dof - 6; 0 gives a rigid body.
@@ -279,22 +295,102 @@ def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
                     modal damping 2 zeta omega (rigid modes: 0).  Paper: 0.05.
     method:         "auto" (dense up to DENSE_LIMIT DOFs), "dense" or "sparse".
     sigma:          shift of the sparse shift-invert solve, rad^2/s^2; must be < 0.
+    cache:          keep the modes in the on-disk cache (:mod:`flexfmu.cache`) and reuse them: True,
+                    False, or None (default) = for models of CACHE_MIN_DOF DOFs or more.  The key is
+                    a digest of the structure's arrays (nodes, M, K), n_flexible, method, sigma and
+                    the source of this module; the damping ratio is applied after the look-up.
 
-    Raises ParameterError naming ``n_flexible``, ``damping_ratio``, ``method``, ``sigma``,
+    Raises ParameterError naming ``n_flexible``, ``damping_ratio``, ``method``, ``sigma``, ``cache``,
     ``structure.*`` (see :func:`flexfmu.io.validate_structure`), ``structure.M`` if a rigid
     rotation has no inertia, or ``structure.K`` if the structure is not free-free (rigid motion
     produces elastic forces), has more than six zero-energy modes, or K is indefinite.
     """
-    s = validate_structure(structure)
-    K, M = s.K, s.M
-    n_dof = s.n_dof
-    n = _check_n_flexible(n_flexible, n_dof)
-    zeta = _check_damping(damping_ratio, n)
+    if cache is not None and not isinstance(cache, bool):
+        raise ParameterError("cache", f"{cache!r}", "True, False or None (automatic)")
     if method not in ("auto", "dense", "sparse"):
         raise ParameterError("method", repr(method), '"auto", "dense" or "sparse"')
     if not (np.isfinite(sigma) and sigma < 0.0):
         raise ParameterError("sigma", f"{sigma!r}", "finite and < 0 (rad^2/s^2)")
+    # A cache key from the structure as given (CSR arrays, before validate_structure's symmetrised copies):
+    # an entry exists only for arrays that passed validation and the computation, so a hit skips both.
+    key = _cache_key(structure, n_flexible, method, float(sigma)) if cache is not False else None
+    if key is not None and (cache or key[1] >= CACHE_MIN_DOF):
+        n_dof = key[1]
+        n = _check_n_flexible(n_flexible, n_dof)
+        zeta = _check_damping(damping_ratio, n)
+        parts = _from_cache(key[0], n_dof, n)
+        if parts is None:
+            s = validate_structure(structure)
+            parts = _compute(s, n, method, float(sigma))
+            _cache.store(_CACHE_KIND, key[0], {**parts, "method": np.array(parts["method"])})
+    else:
+        s = validate_structure(structure)
+        n = _check_n_flexible(n_flexible, s.n_dof)
+        zeta = _check_damping(damping_ratio, n)
+        if cache:      # not CSR arrays: the key from the validated copy
+            key = _cache_key(s, n, method, float(sigma))
+            parts = _from_cache(key[0], s.n_dof, n)
+            if parts is None:
+                parts = _compute(s, n, method, float(sigma))
+                _cache.store(_CACHE_KIND, key[0], {**parts, "method": np.array(parts["method"])})
+        else:
+            parts = _compute(s, n, method, float(sigma))
+    omega = np.sqrt(parts["lam"])
+    return ModalBasis(shapes=parts["shapes"], frequencies_hz=omega / (2.0 * np.pi),
+                      stiffness=np.concatenate([np.zeros(N_RIGID), parts["lam"]]),
+                      damping=np.concatenate([np.zeros(N_RIGID), 2.0 * zeta * omega]), damping_ratio=zeta,
+                      mass=float(parts["mass"]), center_of_mass=parts["center_of_mass"], inertia=parts["inertia"],
+                      rigid_transform=parts["rigid_transform"], method=str(parts["method"]))
 
+
+# --------------------------------------------------------------------------- on-disk cache
+_CACHE_KIND = "modal_basis"
+_ARRAYS = ("shapes", "lam", "mass", "center_of_mass", "inertia", "rigid_transform")
+
+
+@lru_cache(maxsize=1)
+def _source_digest() -> str:
+    """Digest of the code that checks and computes a basis (this module, flexfmu.modal, flexfmu.io): a
+    changed algorithm never reads the bases of the old one, even at the same flexfmu version."""
+    from flexfmu import io, modal
+    return "".join(_cache.file_digest(path) for path in (__file__, modal.__file__, io.__file__))
+
+
+def _cache_key(structure, n_flexible, method: str, sigma: float) -> tuple[str, int] | None:
+    """(key, n_dof) from the structure's own arrays, or None if they are not float CSR matrices of
+    matching shapes with (N, 3) float nodes (then validate_structure first: it normalises them)."""
+    nodes, dpn, M, K = structure.nodes, structure.dofs_per_node, structure.M, structure.K
+    if not (isinstance(nodes, np.ndarray) and nodes.ndim == 2 and nodes.shape[1] == 3 and nodes.dtype == float
+            and isinstance(dpn, numbers.Integral) and dpn in (3, 6)):
+        return None
+    n_dof = nodes.shape[0] * int(dpn)
+    for A in (M, K):
+        if not (sp.issparse(A) and A.format == "csr" and A.shape == (n_dof, n_dof) and A.dtype == float):
+            return None
+    if isinstance(n_flexible, bool) or not isinstance(n_flexible, numbers.Integral):
+        return None                                            # _check_n_flexible reports it
+    model = _cache.array_digest(nodes, np.array([int(dpn)]), M.indptr, M.indices, M.data,
+                                K.indptr, K.indices, K.data)
+    key = _cache.make_key(_CACHE_KIND, model=model, n_flexible=int(n_flexible), method=method, sigma=sigma,
+                          numpy=np.__version__, scipy=scipy.__version__, code=_source_digest())
+    return key, n_dof
+
+
+def _from_cache(key: str, n_dof: int, n: int) -> dict | None:
+    """The cached parts of a basis, or None if absent or not of the expected shapes."""
+    parts = _cache.load(_CACHE_KIND, key)
+    if parts is None or any(name not in parts for name in _ARRAYS + ("method",)):
+        return None
+    if parts["shapes"].shape != (n_dof, N_RIGID + n) or parts["lam"].shape != (n,) or \
+            not all(np.all(np.isfinite(parts[name])) for name in _ARRAYS):
+        return None
+    return parts
+
+
+def _compute(s: Structure, n: int, method: str, sigma: float) -> dict:
+    """Rigid and flexible modes of a validated structure: the arrays of a ModalBasis except the damping."""
+    K, M = s.K, s.M
+    n_dof = s.n_dof
     Phi, A, mass, c, inertia = _rigid_orthonormal(s)
 
     # Free-free check: rigid-body motion must produce no elastic forces.  Scale-free measure:
@@ -335,10 +431,5 @@ def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
             raise ParameterError("structure.K", "more than six zero-energy modes (a mechanism or a disconnected part)",
                                  "a connected free-free structure with exactly six rigid-body modes")
 
-    omega = np.sqrt(lam)
-    shapes = np.hstack([Phi, Psi_F])
-    stiffness = np.concatenate([np.zeros(N_RIGID), lam])
-    damping = np.concatenate([np.zeros(N_RIGID), 2.0 * zeta * omega])
-    return ModalBasis(shapes=shapes, frequencies_hz=omega / (2.0 * np.pi), stiffness=stiffness,
-                      damping=damping, damping_ratio=zeta, mass=mass, center_of_mass=c,
-                      inertia=inertia, rigid_transform=A, method=used)
+    return {"shapes": np.hstack([Phi, Psi_F]), "lam": lam, "mass": mass, "center_of_mass": c,
+            "inertia": inertia, "rigid_transform": A, "method": used}

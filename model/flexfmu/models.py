@@ -58,10 +58,8 @@ def load_model(spec: str, **options) -> Structure:
         raise ParameterError("model", f"{spec!r}", MODEL_ALLOWED)
     spec = spec.strip()
     if spec == "paper_plate":
-        from flexfmu.plate import paper_plate
-
         _check_options("paper_plate", options)
-        structure = paper_plate(**options)
+        structure = _cached_paper_plate(**options)
         kind = "paper_plate"
     elif spec.startswith(BEAM_PREFIX):
         from flexfmu.assembly import build_beam_model
@@ -89,6 +87,38 @@ def load_model(spec: str, **options) -> Structure:
         raise ParameterError("model", f"{spec!r} is not a known model", MODEL_ALLOWED)
     structure.meta = dict(structure.meta or {})
     structure.meta.update(model=spec, kind=kind)
+    return structure
+
+
+def _cached_paper_plate(**options) -> Structure:
+    """:func:`flexfmu.plate.paper_plate` through the on-disk cache (:mod:`flexfmu.cache`): the mesh and
+    the assembly of the default plate take seconds, reading them back a fraction of that.  Keyed by the
+    checked divisions and corner mass, the source of flexfmu.plate and the scikit-fem version."""
+    from importlib.metadata import version
+
+    import scipy.sparse as sp
+
+    from flexfmu import cache, plate
+
+    divisions = plate._check_divisions(options.get("divisions", plate.DEFAULT_DIVISIONS))
+    corner_mass = plate._check_corner_mass(options.get("corner_mass", plate.CORNER_MASS))
+    key = cache.make_key("paper_plate", divisions=divisions, corner_mass=corner_mass,
+                         code=cache.file_digest(plate.__file__), skfem=version("scikit-fem"))
+    hit = cache.load("paper_plate", key)
+    if hit is not None:
+        try:
+            n_dof = hit["nodes"].shape[0] * 3
+            M, K = (sp.csr_matrix((hit[f"{m}_data"], hit[f"{m}_indices"], hit[f"{m}_indptr"]), shape=(n_dof, n_dof))
+                    for m in "MK")
+            return Structure(nodes=hit["nodes"], dofs_per_node=3, M=M, K=K, name=str(hit["name"]),
+                             meta=cache.meta_from_json(str(hit["meta"])))
+        except (KeyError, ValueError, TypeError):
+            pass                                   # an entry of another layout: assemble again
+    structure = plate.paper_plate(divisions, corner_mass=corner_mass)
+    cache.store("paper_plate", key, {"nodes": structure.nodes, "name": np.array(structure.name),
+                                     "meta": np.array(cache.meta_to_json(structure.meta)),
+                                     **{f"{m}_{part}": getattr(A, part) for m, A in (("M", structure.M), ("K", structure.K))
+                                        for part in ("data", "indices", "indptr")}})
     return structure
 
 

@@ -62,6 +62,13 @@ def _check_divisions(divisions) -> tuple[int, int, int]:
     return d
 
 
+def _check_corner_mass(corner_mass) -> float:
+    if isinstance(corner_mass, bool) or not (isinstance(corner_mass, numbers.Real) and np.isfinite(corner_mass)
+                                             and corner_mass >= 0):
+        raise ParameterError("corner_mass", f"{corner_mass!r}", "finite number >= 0 (kg)")
+    return float(corner_mass)
+
+
 def plate_fe(divisions=DEFAULT_DIVISIONS):
     """scikit-fem objects of the bare plate (no corner masses), for inspection and tests.
 
@@ -86,14 +93,49 @@ def plate_fe(divisions=DEFAULT_DIVISIONS):
     return mesh, basis, nodes, perm
 
 
+_ELEMENT_CHUNK = 20_000          # elements per block of the vectorised stiffness assembly (memory ~ 0.5 GB)
+
+
+def _elasticity_stiffness(basis, lam: float, mu: float) -> sp.csr_matrix:
+    """K of isotropic linear elasticity on a vector basis: the bilinear form of scikit-fem's
+    ``linear_elasticity`` (a(u, v) = 2 mu eps(u) : eps(v) + lam div u div v over ``basis.dx``),
+    vectorised over the elements as batched matrix products instead of scikit-fem's one kernel call per
+    pair of element DOFs (900 for tetra10): about half the assembly time of the default plate."""
+    n_local = basis.Nbfun
+    dofs = basis.element_dofs.astype(np.int32)                   # (n_local, n_elements)
+    n_el = dofs.shape[1]
+    size = n_local * n_local
+    data = np.empty(n_el * size)
+    rows = np.empty(n_el * size, dtype=np.int32)
+    cols = np.empty(n_el * size, dtype=np.int32)
+    for start in range(0, n_el, _ELEMENT_CHUNK):
+        sl = slice(start, min(start + _ELEMENT_CHUNK, n_el))
+        # (3 components, 3 derivatives, n_el, n_qp, n_local) -> strains weighted by sqrt(dx), so that the
+        # element matrices are Gram matrices E^T E over (quadrature point, strain component).
+        G = np.stack([basis.basis[i][0].grad[:, :, sl] for i in range(n_local)], axis=-1)
+        eps = 0.5 * (G + G.transpose(1, 0, 2, 3, 4))
+        root = np.sqrt(basis.dx[sl])[:, :, None]                  # (n_el, n_qp, 1), dx > 0
+        E = (eps * root).transpose(2, 3, 0, 1, 4).reshape(root.shape[0], -1, n_local)
+        D = (eps[0, 0] + eps[1, 1] + eps[2, 2]) * root              # divergence, (n_el, n_qp, n_local)
+        Ke = 2.0 * mu * np.matmul(E.transpose(0, 2, 1), E) + lam * np.matmul(D.transpose(0, 2, 1), D)
+        d = dofs[:, sl].T                                          # (n_el, n_local)
+        out = slice(start * size, sl.stop * size)
+        data[out] = Ke.ravel()
+        rows[out] = np.repeat(d, n_local, axis=1).ravel()
+        cols[out] = np.tile(d, (1, n_local)).ravel()
+    K = sp.csr_matrix((data, (rows, cols)), shape=(basis.N, basis.N))
+    K.eliminate_zeros()                                            # as scikit-fem's assembly
+    return K
+
+
 def _assemble(divisions):
     from skfem import Basis, ElementTetP2, asm
-    from skfem.models.elasticity import lame_parameters, linear_elasticity
+    from skfem.models.elasticity import lame_parameters
     from skfem.models.poisson import mass
 
     mesh, basis, nodes, perm = plate_fe(divisions)
-    K = asm(linear_elasticity(*lame_parameters(YOUNGS_MODULUS, POISSON)), basis)
-    K = K.tocsr()[perm][:, perm]
+    K = _elasticity_stiffness(basis, *lame_parameters(YOUNGS_MODULUS, POISSON))
+    K = K[perm][:, perm]
     # Scalar P2 mass (P2 x P2 is degree 4), node ordered, then expanded to x, y, z per node.
     sbasis = Basis(mesh, ElementTetP2(), intorder=4)
     sperm = np.concatenate([sbasis.nodal_dofs[0], sbasis.edge_dofs[0]])
@@ -128,8 +170,7 @@ def paper_plate(divisions=DEFAULT_DIVISIONS, *, corner_mass: float = CORNER_MASS
     (m), ``divisions``, ``n_elements``, ``material``, ``element``, ``paper_frequencies_hz``.
     """
     d = _check_divisions(divisions)
-    if not (isinstance(corner_mass, numbers.Real) and np.isfinite(corner_mass) and corner_mass >= 0):
-        raise ParameterError("corner_mass", f"{corner_mass!r}", "finite number >= 0 (kg)")
+    corner_mass = _check_corner_mass(corner_mass)
     mesh, nodes, M, K = _assemble(d)
 
     corner_nodes = [_find_node(nodes, c) for c in CORNERS]
