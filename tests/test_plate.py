@@ -179,3 +179,32 @@ def test_bad_corner_mass(corner_mass):
     with pytest.raises(ParameterError) as err:
         paper_plate((4, 1, 1), corner_mass=corner_mass)
     assert err.value.parameter == "corner_mass"
+
+
+def test_vectorised_stiffness_equals_scikit_fem_linear_elasticity():
+    """plate._elasticity_stiffness (batched Gram products) is scikit-fem's linear_elasticity form."""
+    from skfem import asm
+    from skfem.models.elasticity import lame_parameters, linear_elasticity
+
+    from flexfmu.plate import POISSON, YOUNGS_MODULUS, _elasticity_stiffness, plate_fe
+
+    _, basis, _, _ = plate_fe((6, 2, 2))
+    lam, mu = lame_parameters(YOUNGS_MODULUS, POISSON)
+    reference = asm(linear_elasticity(lam, mu), basis).tocsr()
+    ours = _elasticity_stiffness(basis, lam, mu)
+    assert ours.shape == reference.shape
+    assert abs(ours - reference).max() <= 1e-14 * abs(reference).max()
+
+
+def test_vectorised_stiffness_in_element_blocks(monkeypatch):
+    """The element blocks of the vectorised assembly add up to the one-block matrix."""
+    from skfem.models.elasticity import lame_parameters
+
+    from flexfmu import plate
+
+    _, basis, _, _ = plate.plate_fe((6, 2, 2))
+    lam, mu = lame_parameters(plate.YOUNGS_MODULUS, plate.POISSON)
+    whole = plate._elasticity_stiffness(basis, lam, mu)
+    monkeypatch.setattr(plate, "_ELEMENT_CHUNK", 7)            # 144 elements: 21 blocks, the last partial
+    blocks = plate._elasticity_stiffness(basis, lam, mu)
+    assert abs(blocks - whole).max() == 0.0

@@ -27,18 +27,16 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from pathlib import Path
 
 import numpy as np
 
 
 def cache_root() -> str:
-    """Per-user cache folder of flexfmu: $FLEXFMU_CACHE_DIR, else $XDG_CACHE_HOME/flexfmu, else ~/.cache/flexfmu."""
-    explicit = os.environ.get("FLEXFMU_CACHE_DIR")
-    if explicit:
-        return explicit
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return os.path.join(base, "flexfmu")
+    """Per-user cache folder of flexfmu (flexfmu.cache.cache_root: $FLEXFMU_CACHE_DIR, else
+    $XDG_CACHE_HOME/flexfmu, else ~/.cache/flexfmu)."""
+    from flexfmu.cache import cache_root as root
+    return str(root())
+
 
 _WANT_NUMBA = os.environ.get("FLEXFMU_NUMBA", "1").strip().lower() not in ("0", "false", "no", "off")
 try:

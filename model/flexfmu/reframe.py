@@ -1177,7 +1177,9 @@ class _Prepared:
         ld.force = _History(force, "load.force")
         if moment is not None:
             ld.moment = _History(moment, "load.moment")
-        self._held = None
+        if self._held is not None:        # every load was constant and still is: update its row in place
+            self._held[0, :, index, 0:3] = ld.force.raw(0.0)
+            self._held[0, :, index, 3:6] = ld.moment.raw(0.0)
 
     def stage_values(self, t: float, dt: float, n: int):
         """Force and moment of every load at t_k, t_k + dt/2, t_k + dt (t_0 = t, t_{k+1} = t_k + dt) for

@@ -328,6 +328,7 @@ class ReframeBodySimulator:
         self._last_split = None
         self._force = np.zeros(3)
         self._moment = np.zeros(3)
+        self._held_list = [0.0] * 6                 # the held force and moment as a list (set_input_vector)
         rotational = integ.data.structure.dofs_per_node == 6
         # Constant histories, replaced by the held input at each set_inputs (Prepared.set_held).
         load = PointLoad((c.load_point_x, c.load_point_y, c.load_point_z), force=self._force.copy(),
@@ -413,6 +414,7 @@ class ReframeBodySimulator:
         if not (np.array_equal(force, self._force) and np.array_equal(moment, self._moment)):
             self._force, self._moment = force, moment
             self._loads.set_held(0, force, moment if self._accepts_moment else None)
+        self._held_list = force.tolist() + moment.tolist()
 
     def set_input_vector(self, values) -> None:
         """All inputs at once, in INPUT_NAMES order (the FMU's per-step path)."""
@@ -422,7 +424,10 @@ class ReframeBodySimulator:
             self.set_inputs(**dict(zip(INPUT_NAMES, vals)))
             return
         self.inputs = dict(zip(INPUT_NAMES, vals))
-        self._hold(np.array(vals[0:3]), np.array(vals[3:6]))
+        if vals[0:6] != self._held_list:            # lists: cheaper than arrays and np.array_equal
+            self._held_list = vals[0:6]
+            self._force, self._moment = np.array(vals[0:3]), np.array(vals[3:6])
+            self._loads.set_held(0, self._force, self._moment if self._accepts_moment else None)
 
     def step(self, step_size: float) -> None:
         """Equal internal steps over step_size (s) with the inputs held, in one kernel call (see _split)."""
