@@ -9,7 +9,8 @@ import scipy.linalg as sla
 
 from flexfmu.models import load_model
 from flexfmu.reframe import PointLoad, ReframeIntegrator
-from flexfmu.reframe_body_sim import (ReframeBodyConfig, ReframeBodySimulator, load_point_rows, modal_compliance)
+from flexfmu.model_size import load_point_rows, modal_compliance
+from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
 
 BEAM = "beam:spatial_double_L"            # free-free bent rod; flexible modes 148, 266, 280, 980, ... Hz
 TIP = (0.14, 0.15, 0.16)                  # its free end (node 12 with 8 elements per segment: the last node)
@@ -137,7 +138,7 @@ def test_auto_model_response_to_a_short_pulse_meets_the_tolerance():
     tests/test_reframe_exponential.py).  The modes up to f_max alone miss the tolerance, so the test can fail."""
     from flexfmu.models import default_load_point
     from flexfmu.reframe import half_sine_pulse
-    from flexfmu.reframe_body_sim import auto_basis
+    from flexfmu.model_size import auto_basis
 
     structure = load_model(BEAM)
     tip = default_load_point(structure)
