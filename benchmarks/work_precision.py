@@ -859,17 +859,11 @@ def write_report(path: Path, cases, figures, mach, quick, elapsed, extra_notes, 
 
 
 def machine() -> str:
-    import platform
-    cpu = platform.processor() or ""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    import os
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, numpy {np.__version__}"
+    """One line of benchmarks/performance.py's machine description."""
+    from benchmarks.performance import machine as machine_facts
+
+    m = machine_facts()
+    return f"{m['cpu']}, {m['cores']} cores, Python {m['python']}, numpy {m['numpy']}"
 
 
 # --------------------------------------------------------------------------- driver

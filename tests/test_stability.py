@@ -17,7 +17,7 @@ import pytest
 import scipy.linalg
 
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.modal_basis import modal_basis
+from flexfmu.modal_basis import mass_properties, modal_basis
 from flexfmu.models import load_model
 from flexfmu.reframe import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator
 
@@ -44,28 +44,10 @@ def natural_frequencies(structure):
 
 
 def principal_axes(structure):
-    """Principal moments (ascending) and axes (columns) about the centre of mass, from M and the nodes."""
-    nodes = np.asarray(structure.nodes, float)
-    dpn = structure.dofs_per_node
-    n = nodes.shape[0] * dpn
-
-    def fields(origin):
-        T, S = np.zeros((n, 3)), np.zeros((n, 3))
-        for k in range(3):
-            T[k::dpn, k] = 1.0
-            rot = np.cross(np.eye(3)[k], nodes - origin)
-            for j in range(3):
-                S[j::dpn, k] = rot[:, j]
-            if dpn == 6:
-                S[3 + k::dpn, k] = 1.0
-        return T, S
-
-    T, S = fields(np.zeros(3))
-    m = float(np.trace(T.T @ (structure.M @ T))) / 3.0
-    C = T.T @ (structure.M @ S)
-    c = np.array([C[1, 2] - C[2, 1], C[2, 0] - C[0, 2], C[0, 1] - C[1, 0]]) / (2.0 * m)
-    _, S = fields(c)
-    return np.linalg.eigh(S.T @ (structure.M @ S))
+    """Principal moments (ascending) and axes (columns) about the centre of mass (flexfmu.modal_basis.
+    mass_properties, checked against an independent computation in tests/test_reframe.py)."""
+    props = mass_properties(structure)
+    return props.principal_moments, props.principal_axes
 
 
 def spurious_stretch(point_position, rigid_length):
@@ -168,28 +150,26 @@ def test_large_rotation_fixed_frame_model_stretches_reframe_holds(rod):
 
 
 # --------------------------------------------------------------------------- 3. co-simulation coupling
+def _study():
+    """benchmarks/stability.py, which draws the charts from the same system and predictions."""
+    import importlib
+    import sys
+
+    root = str(Path(__file__).resolve().parents[1])
+    if root not in sys.path:
+        sys.path.insert(0, root)
+    return importlib.import_module("benchmarks.stability")
+
+
 def platform_beam_system(mass_ratio: float):
-    """FFRBeam (FMU defaults: spatial_double_L clamped at its first point, 6 modes, 1 % damping) on a rigid
-    Platform without water forces; platform density set so that beam mass / (rho L B T) = mass_ratio.
-    Platform -> beam: mount-point acceleration, angular velocity and acceleration; beam -> platform:
-    clamp reaction force and moment (the payload load)."""
-    from flexfmu.cosim import SimulatorSpec, System
+    """The study's FFRBeam-on-a-rigid-Platform system (platform density from the mass ratio), with the beam's
+    inertia integrals and the platform's config."""
     from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
     from flexfmu.platform_sim import PlatformConfig
 
-    ints = FFRBeamSimulator(FFRBeamConfig()).dynamics.integrals
-    cfg = PlatformConfig()
-    rho = ints.mass / (mass_ratio * cfg.length * cfg.beam * cfg.draft)
-    conns = []
-    for a in AXES:
-        conns += [(("platform", f"mount_a_{a}"), ("beam", f"base_a_{a}")),
-                  (("platform", f"omega_{a}"), ("beam", f"base_w_{a}")),
-                  (("platform", f"alpha_{a}"), ("beam", f"base_dw_{a}")),
-                  (("beam", f"reaction_F_{a}"), ("platform", f"payload_F_{a}")),
-                  (("beam", f"reaction_M_{a}"), ("platform", f"payload_M_{a}"))]
-    system = System([SimulatorSpec("platform", Path("Platform.fmu"), {"rho": rho}),
-                     SimulatorSpec("beam", Path("FFRBeam.fmu"), {})], conns, 1e-4)
-    return system, ints, PlatformConfig(rho=rho)
+    system = _study().platform_beam_system(mass_ratio)
+    rho = next(spec for spec in system.simulators if spec.name == "platform").initial_values["rho"]
+    return system, FFRBeamSimulator(FFRBeamConfig()).dynamics.integrals, PlatformConfig(rho=rho)
 
 
 def kicked_run(system, h, scheme, n_steps):
@@ -210,15 +190,8 @@ def kicked_run(system, h, scheme, n_steps):
 
 
 def residual_inertia():
-    """The beam's rigid inertia not carried by its retained modes (from the FE matrices, see
-    benchmarks/stability.py, which draws the chart from the same prediction)."""
-    import importlib
-    import sys
-
-    root = str(Path(__file__).resolve().parents[1])
-    if root not in sys.path:
-        sys.path.insert(0, root)
-    return importlib.import_module("benchmarks.stability").residual_inertia()
+    """The beam's rigid inertia not carried by its retained modes, from the FE matrices (the study's)."""
+    return _study().residual_inertia()
 
 
 def test_cosim_coupling_instability_detected_and_stable_point_stable():
