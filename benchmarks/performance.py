@@ -85,7 +85,8 @@ def _plate_integrator(divisions, n_flexible=10, scheme="consistent"):
 
 
 def reframe_step_times(integ, n=2000):
-    """(single advance() call, batched advance_steps, output_vector) per call, s; paper's load, moving."""
+    """(single advance() call, batched advance_steps, output_vector, output_vector without the max elastic
+    displacement search) per call, s; paper's load, moving."""
     from flexfmu.plate import LOAD_POINT
     from flexfmu.reframe import RK4_STABILITY_LIMIT, PointLoad, half_sine_pulse
 
@@ -104,11 +105,12 @@ def reframe_step_times(integ, n=2000):
     def batched():
         integ.advance_steps(s0, dt, n, loads)
 
-    def outputs():
+    def outputs(max_elastic=True):
         for _ in range(n // 10):
-            integ.output_vector(s0, loads, pts)
+            integ.output_vector(s0, loads, pts, max_elastic=max_elastic)
 
-    return _best(single) / n, _best(batched) / n, _best(outputs) / (n // 10)
+    return (_best(single) / n, _best(batched) / n, _best(outputs) / (n // 10),
+            _best(lambda: outputs(False)) / (n // 10))
 
 
 # --------------------------------------------------------------------------- FMUs through fmpy
@@ -228,8 +230,11 @@ def ffrbeam_library_step(n=20000):
     return _best(run) / n
 
 
+N_NOOP_OUT = 6      # as many outputs as the ReframeBody master below reads
+
+
 def build_noop_fmu(tmp: Path) -> Path:
-    """A pythonfmu FMU with three Real inputs i0..i2 and three outputs o0..o2 whose doStep does nothing:
+    """A pythonfmu FMU with three Real inputs i0..i2 and N_NOOP_OUT outputs o0.. whose doStep does nothing:
     the floor of fmpy + pythonfmu under any Python FMU."""
     script = tmp / "Noop.py"
     script.write_text(
@@ -238,11 +243,12 @@ def build_noop_fmu(tmp: Path) -> Path:
         "    author = 'bench'\n    description = 'no-op'\n"
         "    def __init__(self, **kw):\n"
         "        super().__init__(**kw)\n"
-        "        self.v = dict.fromkeys([f'i{k}' for k in range(3)] + [f'o{k}' for k in range(3)], 0.0)\n"
+        f"        self.v = dict.fromkeys([f'i{{k}}' for k in range(3)] + [f'o{{k}}' for k in range({N_NOOP_OUT})], 0.0)\n"
         "        for k in range(3):\n"
         "            self.register_variable(Real(f'i{k}', causality=Fmi2Causality.input, "
         "variability=Fmi2Variability.continuous, getter=lambda k=k: self.v[f'i{k}'], "
         "setter=lambda x, k=k: self.v.__setitem__(f'i{k}', x)))\n"
+        f"        for k in range({N_NOOP_OUT}):\n"
         "            self.register_variable(Real(f'o{k}', causality=Fmi2Causality.output, "
         "variability=Fmi2Variability.continuous, getter=lambda k=k: self.v[f'o{k}']))\n"
         "    def do_step(self, t, h):\n        return True\n")
@@ -250,76 +256,102 @@ def build_noop_fmu(tmp: Path) -> Path:
     return Path(FmuBuilder.build_FMU(script, dest=tmp))
 
 
-def noop_fmu_per_step(fmu: Path) -> float:
-    """fmpy + pythonfmu floor: setReal(3) + doStep + getReal(3) through FMU2Slave on the no-op FMU, s."""
+def _per_call(calls: dict, n: int, blocks: int = 5) -> dict:
+    """Median wall time (perf_counter) of each of ``calls`` {name: fn(k)}, called in turn for k < n, the
+    smallest median of ``blocks`` blocks, s.  Per-call medians shrug off the interruptions of a shared
+    machine; the timer's own cost (~0.1 us per call) is included in every figure alike."""
+    names = list(calls)
+    fns = [calls[name] for name in names]
+    clock = time.perf_counter
+    best = dict.fromkeys(names, math.inf)
+    for _ in range(blocks):
+        samples = [np.empty(n) for _ in names]
+        for k in range(n):
+            for j, fn in enumerate(fns):
+                t0 = clock()
+                fn(k)
+                samples[j][k] = clock() - t0
+        for name, x in zip(names, samples):
+            best[name] = min(best[name], float(np.median(x)))
+    return best
+
+
+def noop_fmu_calls(fmu: Path, n: int = 2000) -> dict:
+    """fmpy + pythonfmu floor per call on the no-op FMU through FMU2Slave: setReal(3), doStep, getReal(6)
+    (as many values as the ReframeBody master reads), s; and "cycle", the three in a loop (CPU time per
+    loop pass, best of three: the floor under a whole record)."""
     sl = _Slave(fmu)
     vin = [sl.vr[f"i{k}"] for k in range(3)]
-    vout = [sl.vr[f"o{k}"] for k in range(3)]
-    n = 20000
+    vout = [sl.vr[f"o{k}"] for k in range(N_NOOP_OUT)]
+    f = sl.fmu
+    h = 1e-4
     clock = {"t": 0.0}
 
-    def run():
-        for _ in range(n):
-            sl.fmu.setReal(vin, [0.0, 0.0, 0.0])
-            sl.fmu.doStep(clock["t"], 1e-4)
-            clock["t"] += 1e-4
-            sl.fmu.getReal(vout)
-    per = _best(run) / n
+    def do_step(_k=None):
+        f.doStep(clock["t"], h)
+        clock["t"] += h
+
+    times = _per_call({"setReal": lambda k: f.setReal(vin, [1e-3 * k, 0.0, 0.0]), "doStep": do_step,
+                       "getReal": lambda k: f.getReal(vout)}, n)
+
+    def cycle():
+        for k in range(10 * n):
+            f.setReal(vin, [0.0, 0.0, 0.0])
+            do_step()
+            f.getReal(vout[0:3])
+    times["cycle"] = _best(cycle) / (10 * n)
     sl.free()
-    return per
+    return times
 
 
-def reframebody_overhead(fmu: Path, npz: Path, n_internal=10) -> dict:
-    """doStep of ReframeBody through fmpy (communication step = n_internal internal steps of 1e-4 s) and
-    the library's step of the same configuration (ReframeBodySimulator.step, one kernel call, held load),
-    measured alternately; the difference is the FMU's per-call overhead (input path, outputs, FMU layer,
-    fmpy, pythonfmu).  The force changes at every FMU call (a coupled master): the input path is counted."""
+def reframebody_calls(fmu: Path, npz: Path, n_internal=10, n=500) -> dict:
+    """Per-call cost of ReframeBody through fmpy's FMU2Slave against the library doing the same work.
+
+    Master: setReal of the force (a new value at every call: a coupled master), doStep of n_internal
+    internal steps of 1e-4 s, getReal of six outputs (omega, output-point acceleration); the same with the
+    force held (no input change), and with max_elastic_displacement read as well.  Library, same
+    configuration: ReframeBodySimulator.set_input_vector (a new force), .step, .output_vector without the
+    deferred search.  Medians per call (:func:`_per_call`), s."""
     from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
     start = {"model": str(npz), "n_flexible_modes": 10, "internal_step": 1e-4}
     sl = _Slave(fmu, **start)
     lib = ReframeBodySimulator(ReframeBodyConfig(**start))
     vin = [sl.vr[f"F_{a}"] for a in "xyz"]
-    vout = [sl.vr[n] for n in ("omega_1", "omega_2", "omega_3", "out_acc_x", "out_acc_y", "out_acc_z")]
+    vout = [sl.vr[name] for name in ("omega_1", "omega_2", "omega_3", "out_acc_x", "out_acc_y", "out_acc_z")]
+    vmax = [sl.vr["max_elastic_displacement"]]
     f = sl.fmu
     h = n_internal * 1e-4
-    n = 500
-    forces = [[FORCE[0] * (1.0 + 1e-3 * k), 0.0, FORCE[2] * (1.0 + 1e-3 * k)] for k in range(n)]
+    force = [[FORCE[0] * (1.0 + 1e-6 * k), 0.0, FORCE[2] * (1.0 + 1e-6 * k)] for k in range(n)]
     clock = {"fmu": 0.0}
 
-    def through_fmpy():
-        for k in range(n):
-            f.setReal(vin, forces[k])
-            f.doStep(clock["fmu"], h)
-            clock["fmu"] += h
-            f.getReal(vout)
+    def do_step(k):
+        f.doStep(clock["fmu"], h)
+        clock["fmu"] += h
 
-    def through_fmpy_held():                                  # the same force at every call
-        for _ in range(n):
-            f.setReal(vin, forces[0])
-            f.doStep(clock["fmu"], h)
-            clock["fmu"] += h
-            f.getReal(vout)
-
-    lib.set_input_vector(forces[0] + [0.0, 0.0, 0.0])
-
-    def library_steps():                                      # the kernel's cost does not depend on the value
-        for _ in range(n):
-            lib.step(h)
-
-    fmu_best = held_best = lib_best = math.inf
-    for _ in range(5):
-        fmu_best = min(fmu_best, _best(through_fmpy, 1))
-        held_best = min(held_best, _best(through_fmpy_held, 1))
-        lib_best = min(lib_best, _best(library_steps, 1))
+    # FMU and library calls interleaved, so that both see the same state of the shared machine
+    fmu_changing = _per_call({"setReal": lambda k: f.setReal(vin, force[k]), "doStep": do_step,
+                              "getReal": lambda k: f.getReal(vout),
+                              "lib set_input_vector": lambda k: lib.set_input_vector(force[k] + [0.0, 0.0, 0.0]),
+                              "lib step": lambda k: lib.step(h),
+                              "lib output_vector": lambda k: lib.output_vector(include_deferred=False)}, n)
+    fmu_held = _per_call({"setReal": lambda k: f.setReal(vin, force[0]), "doStep": do_step,
+                          "getReal": lambda k: f.getReal(vout), "lib step": lambda k: lib.step(h)}, n)
+    fmu_max = _per_call({"setReal": lambda k: f.setReal(vin, force[k]), "doStep": do_step,
+                         "getReal": lambda k: f.getReal(vout), "getReal max": lambda k: f.getReal(vmax)}, n)
+    lib_changing = {name[4:]: value for name, value in fmu_changing.items() if name.startswith("lib ")}
+    lib_held = {"step": fmu_held["lib step"]}
+    init = sl.init_time
     sl.free()
-    return {"doStep": fmu_best / n, "library": lib_best / n, "overhead": (fmu_best - lib_best) / n,
-            "overhead_held": (held_best - lib_best) / n, "init": sl.init_time}
+    return {"fmu": fmu_changing, "fmu_held": fmu_held, "fmu_max": fmu_max, "lib": lib_changing,
+            "lib_held": lib_held, "init": init}
 
 
 def fmu_instantiation(fmu: Path, env: dict | None = None, **start) -> float:
     """Instantiate + initialise in a fresh process (no in-process caches), s; ``env``: extra environment."""
-    code = ("import sys, time; sys.path.insert(0, %r); from benchmarks.performance import _Slave; "
-            "s = _Slave(%r, **%r); print(s.init_time)") % (str(ROOT), str(fmu), start)
+    # os._exit: measured and freed; interpreter teardown with pythonfmu's binary loaded has aborted (SIGABRT)
+    # now and then on this machine after the figure was printed, which is not what is measured here
+    code = ("import os, sys, time; sys.path.insert(0, %r); from benchmarks.performance import _Slave; "
+            "s = _Slave(%r, **%r); s.free(); print(s.init_time, flush=True); os._exit(0)") % (str(ROOT), str(fmu), start)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, check=True,
                          env={**os.environ, **(env or {})})
     return float(out.stdout.strip().splitlines()[-1])
@@ -432,7 +464,7 @@ def scaling_row(divisions, n_flexible: int, n_steps: int) -> dict:
     """One scaling row, meant for a fresh process (its peak memory is the row's): set-up times, batched
     step and outputs of a state, peak resident memory."""
     integ, info = _plate_integrator(divisions, n_flexible)
-    _, batch, outs = reframe_step_times(integ, n=n_steps)
+    _, batch, outs, _ = reframe_step_times(integ, n=n_steps)
     return {**info, "modes": 6 + n_flexible, "step": batch, "outputs": outs, "peak_rss_mb": peak_memory_mb()}
 
 
@@ -456,29 +488,32 @@ def run(quick: bool) -> tuple[list, list, dict]:
 
     # (2) per step, m = 16, and (1) mesh independence
     small, info_s = _plate_integrator((10, 2, 1))
-    one, batch, outs = reframe_step_times(small)
+    one, batch, outs, outs_lean = reframe_step_times(small)
     row("reframe step, m = 16, one advance() call", fmt_t(one), "20 µs", one / 20e-6, f"{info_s['n_dof']} DOFs")
     row("reframe step, m = 16, batched (advance_steps, FMU)", fmt_t(batch), "20 µs", batch / 20e-6)
     row("reframe outputs of one state (output_vector)", fmt_t(outs), "–", None)
+    row("  without the max elastic displacement search", fmt_t(outs_lean), "–", None, "O(modes²): all other outputs")
     expo, _ = _plate_integrator((10, 2, 1), scheme="exponential")
-    _, batch_exp, _ = reframe_step_times(expo)
+    _, batch_exp, _, _ = reframe_step_times(expo)
     row("reframe step, m = 16, exponential scheme (FMU default), batched", fmt_t(batch_exp), "20 µs",
         batch_exp / 20e-6, "same dt")
     del expo
     if kern.NUMBA:
         kern_backup = kern.consistent_steps
         kern.consistent_steps = kern.consistent_steps_numpy
-        _, batch_np, _ = reframe_step_times(small, n=200)
+        _, batch_np, _, _ = reframe_step_times(small, n=200)
         kern.consistent_steps = kern_backup
         row("reframe step, m = 16, numpy fallback (FLEXFMU_NUMBA=0)", fmt_t(batch_np), fmt_t(batch), batch_np / batch,
             "vs numba")
     big_div = (40, 6, 2) if quick else (70, 8, 2)
     big, info_b = _plate_integrator(big_div)
-    _, batch_big, outs_big = reframe_step_times(big)
+    _, batch_big, outs_big, outs_lean_big = reframe_step_times(big)
     row(f"reframe step, m = 16, {info_b['n_dof']} vs {info_s['n_dof']} DOFs", fmt_t(batch_big), fmt_t(batch),
         batch_big / batch, "limit 1.2")
     row(f"reframe outputs, {info_b['n_dof']} vs {info_s['n_dof']} DOFs", fmt_t(outs_big), fmt_t(outs),
         outs_big / outs, "max elastic displacement search")
+    row(f"reframe outputs without that search, {info_b['n_dof']} vs {info_s['n_dof']} DOFs", fmt_t(outs_lean_big),
+        fmt_t(outs_lean), outs_lean_big / outs_lean, "limit 1.2")
     del big
     gc.collect()
 
@@ -488,23 +523,37 @@ def run(quick: bool) -> tuple[list, list, dict]:
         noop = build_noop_fmu(tmp)
         from flexfmu.io import save_structure
         npz = save_structure(tmp / "plate_10x2x1.npz", small.data.structure)
-        floor = noop_fmu_per_step(noop)
-        row("fmpy + pythonfmu floor: setReal + doStep + getReal, no-op FMU", fmt_t(floor), "–", None)
-        ov = reframebody_overhead(fmus["ReframeBody"], npz)
-        row("ReframeBody.fmu doStep (10 internal steps) through fmpy", fmt_t(ov["doStep"]), "–", None)
-        row("  the library's 10 steps (ReframeBodySimulator.step)", fmt_t(ov["library"]), "–", None,
-            "measured alternately with the FMU")
-        row("  FMU overhead: doStep − library steps", fmt_t(ov["overhead"]), "10 µs",
-            ov["overhead"] / 10e-6, "goal as written: incl. outputs + floor")
-        row("    of which the outputs of a state (library)", fmt_t(outs), "–", None)
-        row("    of which the fmpy + pythonfmu floor (no-op FMU)", fmt_t(floor), "–", None)
-        own = ov["overhead"] - outs - floor
-        row("    the rest: overhead − outputs − floor", fmt_t(own), "10 µs", own / 10e-6,
-            "input change in the library + FMU layer")
-        row("  FMU overhead beyond the floor (overhead − floor)", fmt_t(ov["overhead"] - floor), "10 µs",
-            (ov["overhead"] - floor) / 10e-6, "ours: outputs + FMU layer")
-        row("  FMU overhead, force held (no input change)", fmt_t(ov["overhead_held"]), "10 µs",
-            ov["overhead_held"] / 10e-6, "incl. outputs + floor")
+        noop_calls = noop_fmu_calls(noop)
+        floor = noop_calls["cycle"]
+        row("fmpy + pythonfmu floor per call (no-op FMU): setReal(3) | doStep | getReal(6)",
+            " | ".join(fmt_t(noop_calls[c]) for c in ("setReal", "doStep", "getReal")), "–", None,
+            "median per call")
+        rb = reframebody_calls(fmus["ReframeBody"], npz)
+        fmu, held, lib, lib_held = rb["fmu"], rb["fmu_held"], rb["lib"], rb["lib_held"]
+        lib_step = lib["set_input_vector"] + lib["step"]
+        row("ReframeBody.fmu doStep (10 internal steps, new force each call) through fmpy", fmt_t(fmu["doStep"]),
+            "–", None, "median per call")
+        row("  the library: set_input_vector + step (10 internal steps)", fmt_t(lib_step), "–", None,
+            f"{fmt_t(lib['set_input_vector'])} + {fmt_t(lib['step'])}")
+        row("  doStep overhead: doStep − library", fmt_t(fmu["doStep"] - lib_step), "10 µs",
+            (fmu["doStep"] - lib_step) / 10e-6, f"floor (no-op doStep) {fmt_t(noop_calls['doStep'])}")
+        row("  doStep overhead, force held: doStep − library step", fmt_t(held["doStep"] - lib_held["step"]),
+            "10 µs", (held["doStep"] - lib_held["step"]) / 10e-6, "no input change")
+        row("  setReal(3 forces)", fmt_t(fmu["setReal"]), fmt_t(noop_calls["setReal"]),
+            fmu["setReal"] / noop_calls["setReal"], "vs no-op FMU")
+        row("  getReal(6 outputs), computed on this first read", fmt_t(fmu["getReal"]),
+            fmt_t(noop_calls["getReal"] + lib["output_vector"]), fmu["getReal"] / (noop_calls["getReal"]
+                                                                               + lib["output_vector"]),
+            f"vs no-op getReal + library outputs {fmt_t(lib['output_vector'])}")
+        row("  getReal(max_elastic_displacement) after those", fmt_t(rb["fmu_max"]["getReal max"]), "–", None,
+            "the deferred whole-mesh search")
+        cycle = fmu["setReal"] + fmu["doStep"] + fmu["getReal"]
+        lib_cycle = lib_step + lib["output_vector"]
+        noop_cycle = noop_calls["setReal"] + noop_calls["doStep"] + noop_calls["getReal"]
+        row("  whole call cycle setReal + doStep + getReal − library (incl. outputs)", fmt_t(cycle - lib_cycle),
+            "10 µs", (cycle - lib_cycle) / 10e-6, f"of which the no-op floor {fmt_t(noop_cycle)}")
+        row("  the same beyond the floor", fmt_t(cycle - lib_cycle - noop_cycle), "10 µs",
+            (cycle - lib_cycle - noop_cycle) / 10e-6, "our FMU layer")
 
         lib = ffrbeam_library_step()
         row("FFRBeam step + outputs, library (XFF, 6 modes)", fmt_t(lib), "–", None)

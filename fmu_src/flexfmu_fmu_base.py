@@ -30,7 +30,14 @@ class FlexfmuPlumbing:
     differs, so the simulator gets its inputs (set_input_vector, else set_inputs) only after a change —
     every simulator holds its inputs until they are set again, and setting equal values changes nothing;
     fmi2GetReal / fmi2SetReal go straight to the variables' getters and setters (pythonfmu's own versions
-    check each variable's type on every call; they still handle what is not a Real, for its error)."""
+    check each variable's type on every call; they still handle what is not a Real, for its error).
+
+    Outputs are computed when first read after a step, not in doStep: a master that reads a few outputs,
+    or reads them less often than it steps, does not pay for the rest.  The values are those of the state
+    and the inputs the step held (new inputs reach the simulator only in the next doStep), exactly what an
+    eager computation after the step gives.  A module's DEFERRED_OUTPUTS (costly outputs, e.g. a search
+    over the mesh) are computed only when one of them is read (``output_vector(include_deferred=False)``,
+    ``deferred_output_vector()``).  Levels of ``_outputs_valid``: 0 none, 1 all but the deferred, 2 all."""
 
     def __init__(self, slave: Fmi2Slave, config_class, simulator_class, module):
         self.slave = slave
@@ -45,6 +52,9 @@ class FlexfmuPlumbing:
         self._inputs = [0.0] * len(self.input_names)         # INPUT_NAMES order
         self._inputs_changed = True                          # not yet given to the simulator
         self._outputs = [0.0] * len(self.output_names)       # OUTPUT_NAMES order, of the last step
+        self._outputs_valid = 0                              # see the class docstring
+        deferred = getattr(module, "DEFERRED_OUTPUTS", ())
+        self._deferred_index = [self.output_names.index(name) for name in deferred]
         for field in fields(self.config_class):
             kind = _KIND[type(self._values[field.name])]
             self.slave.register_variable(kind(field.name, causality=Fmi2Causality.parameter,
@@ -91,7 +101,13 @@ class FlexfmuPlumbing:
         return set_input
 
     def _output_getter(self, i):
-        return lambda: self._outputs[i]
+        level = 2 if i in self._deferred_index else 1         # the validity level this output needs
+
+        def get_output():
+            if self._outputs_valid < level:
+                self._read_outputs(level)
+            return self._outputs[i]
+        return get_output
 
     def get_real(self, vrs):
         """fmi2GetReal: the values of Real variables ``vrs`` (value references); every Real holds a float."""
@@ -123,13 +139,25 @@ class FlexfmuPlumbing:
             self._sim.set_inputs(**dict(zip(self.input_names, self._inputs)))
         self._inputs_changed = False
 
-    def _read_outputs(self):
+    def _read_outputs(self, level: int = 2):
+        """Compute the outputs of the current state up to validity ``level`` (1: all but the deferred)."""
         sim = self._sim
-        if self._vector_api:
-            self._outputs = sim.output_vector().tolist()
-        else:
-            values = sim.outputs()
-            self._outputs = [float(values[name]) for name in self.output_names]
+        if sim is None:                       # before initialisation: the start values
+            return
+        try:
+            if not self._vector_api:
+                values = sim.outputs()
+                self._outputs = [float(values[name]) for name in self.output_names]
+            elif not self._deferred_index:
+                self._outputs = sim.output_vector().tolist()
+            elif self._outputs_valid == 1:    # only the deferred ones are missing
+                for i, value in zip(self._deferred_index, sim.deferred_output_vector()):
+                    self._outputs[i] = float(value)
+            else:
+                self._outputs = sim.output_vector(include_deferred=level == 2).tolist()
+        except FlexfmuError as exc:
+            self._fail(str(exc))
+        self._outputs_valid = 2 if (level == 2 or not self._deferred_index) else 1
 
     # ---- FMI calls
     def exit_initialization_mode(self):
@@ -142,7 +170,8 @@ class FlexfmuPlumbing:
         except FlexfmuError as exc:
             self._fail(str(exc))
         self._log_messages()
-        self._read_outputs()
+        self._outputs_valid = 0
+        self._read_outputs()             # every output once: a problem shows here rather than at a later read
 
     def _log_messages(self):
         """Log (status OK) and clear what the simulator chose and why (its ``messages`` list, if any):
@@ -159,8 +188,8 @@ class FlexfmuPlumbing:
         try:
             if self._inputs_changed:
                 self._give_inputs()
+            self._outputs_valid = 0           # from here on the outputs are those of another state
             sim.step(step_size)
-            self._read_outputs()
         except FlexfmuError as exc:
             self._fail(str(exc))
         if getattr(sim, "messages", None):
@@ -169,6 +198,8 @@ class FlexfmuPlumbing:
 
     # ---- whole-state get/set/serialize (registered variables alone would miss the internal state)
     def get_fmu_state(self):
+        if self._outputs_valid < 2:
+            self._read_outputs()
         return {"values": dict(self._values), "inputs": list(self._inputs), "outputs": list(self._outputs),
                 "sim": None if self._sim is None else self._sim.get_state()}
 
@@ -176,6 +207,7 @@ class FlexfmuPlumbing:
         self._values = dict(state["values"])
         self._inputs[:] = state["inputs"]          # in place: the input setters hold this list
         self._outputs = list(state["outputs"])
+        self._outputs_valid = 2 if state["sim"] is not None else 0
         self._inputs_changed = True                # the simulator's inputs are those of the state's last step
         if state["sim"] is not None:
             if self._sim is None:

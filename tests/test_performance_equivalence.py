@@ -218,6 +218,51 @@ def test_numba_kernels_equal_numpy_versions(beam):
     out_args = (integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV[-1, 2], y_nb, integ._point_data(pts),
                 integ._Psi_c, integ.data.dpn, *integ._umax)
     assert _rel(K.consistent_outputs(*out_args), K.consistent_outputs_numpy(*out_args)) < 1e-12
+    # an empty node order skips the max elastic displacement search: -1 there, every other output unchanged
+    skip_args = out_args[:-5] + integ._umax_skip
+    umax_at = 22 + 2 * integ.data.nf
+    full = K.consistent_outputs(*out_args)
+    for kernel in (K.consistent_outputs, K.consistent_outputs_numpy):
+        lean = kernel(*skip_args)
+        assert lean[umax_at] == K.NOT_COMPUTED == -1.0 and full[umax_at] > 0.0
+        keep = np.arange(full.size) != umax_at
+        assert _rel(lean[keep], full[keep]) < 1e-12
+
+
+def test_output_vector_without_the_search_and_the_search_alone_give_all_outputs(beam):
+    integ, s, loads = _kernel_case(beam)
+    s = integ.advance_steps(s, 5e-5, 100, loads)
+    pts = np.array([0, 7], dtype=np.int64)
+    full = integ.output_vector(s, loads, pts)
+    lean = integ.output_vector(s, loads, pts, max_elastic=False)
+    umax_at = 22 + 2 * integ.data.nf
+    q = s.eta[N_RIGID:N_RIGID + integ.data.nf]
+    all_nodes = float(np.max(np.linalg.norm((integ.data.Phi @ q)[integ.data.trans_rows], axis=1)))
+    assert lean[umax_at] == -1.0
+    assert abs(integ.max_elastic_displacement(s) - all_nodes) <= 1e-14 * all_nodes
+    assert full[umax_at] == integ.max_elastic_displacement(s)
+    assert np.array_equal(np.delete(lean, umax_at), np.delete(full, umax_at))
+
+
+def test_kernel_states_reuse_their_flat_array_only_while_it_is_theirs(beam):
+    """A state from the kernels keeps its [position, rotation, eta] as one array for the next step; a field
+    changed in place is seen, a field replaced by a new array is not lost (the flat array is rebuilt)."""
+    integ, s0, loads = _kernel_case(beam)
+    s = integ.advance_steps(s0, 5e-5, 10, loads)
+
+    def copy(state):
+        return ReframeState(t=state.t, position=state.position.copy(), rotation=state.rotation.copy(),
+                            eta=state.eta.copy())
+
+    def step(state):
+        return integ.advance_steps(state, 5e-5, 10, loads)
+
+    assert np.array_equal(step(s).eta, step(copy(s)).eta)
+    s.position += 1.0                                        # in place: a view of the flat array
+    assert np.array_equal(step(s).position, step(copy(s)).position)
+    s.eta = s.eta + 1e-6                                     # a new array: the flat one is stale
+    ref = step(copy(s))
+    assert np.array_equal(step(s).eta, ref.eta) and not np.array_equal(ref.eta, step(copy(s0)).eta)
 
 
 _FALLBACK_SCRIPT = """

@@ -446,6 +446,8 @@ def consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
 # --------------------------------------------------------------------------- outputs of one state
 #: nodes per block and blocks per superblock of the max-displacement search
 BLOCK = 16
+#: the max elastic displacement's place in the outputs when its search was skipped (a norm is never < 0)
+NOT_COMPUTED = -1.0
 
 
 @_py
@@ -596,7 +598,8 @@ def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, 
     PP: output points, one row
     [X - c (3), Phi rows (3*nf)] each.  Returns [frame origin 3, frame origin velocity 3, quaternion 4,
     omega 3, alpha 3, com position 3, com velocity 3, q nf, qdot nf, max elastic displacement 1, then per
-    point position, velocity, acceleration (full), position, velocity, acceleration (rigid) 6 x 3]."""
+    point position, velocity, acceleration (full), position, velocity, acceleration (rigid) 6 x 3].
+    ``order`` empty: the max elastic displacement is not searched (NOT_COMPUTED = -1 in its place)."""
     m = P[0]
     o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_end = _offsets(nf)
     A6 = P[o_A6:o_A6i].reshape(6, 6)
@@ -649,7 +652,9 @@ def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, 
     out[19:22] = np.dot(R, vc) / m
     out[22:22 + nf] = q
     out[22 + nf:22 + 2 * nf] = qd
-    out[22 + 2 * nf] = max_node_norm_numpy(Psi, N_RIGID, dpn, order, bc, br, sc, sr, q)
+    # an empty node order skips the whole-mesh search (the one output that is not O(modes^2)): NOT_COMPUTED
+    out[22 + 2 * nf] = max_node_norm_numpy(Psi, N_RIGID, dpn, order, bc, br, sc, sr, q) if order.shape[0] \
+        else NOT_COMPUTED
     o = 23 + 2 * nf
     for k in range(n_p):
         X = PP[k, 0:3].copy()
@@ -1227,7 +1232,10 @@ def _nb_reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, 
     for k in range(nf):
         out[22 + k] = q[k]
         out[22 + nf + k] = qd[k]
-    out[22 + 2 * nf] = max_node_norm(Psi, N_RIGID, dpn, order, bc, br, sc, sr, q)
+    if order.shape[0]:
+        out[22 + 2 * nf] = max_node_norm(Psi, N_RIGID, dpn, order, bc, br, sc, sr, q)
+    else:                  # skipped on request (an empty node order): see reframe_outputs
+        out[22 + 2 * nf] = NOT_COMPUTED
     o = 23 + 2 * nf
     X = np.empty(3)
     u = np.empty(3)

@@ -244,6 +244,14 @@ class _History:
             self.kind = "constant"
             self.value = _finite_vec3(spec, name)
 
+    @classmethod
+    def held(cls, value: np.ndarray, name: str) -> "_History":
+        """A constant history of a finite float (3,) array that the caller has checked (the per-step input
+        path of a co-simulation: no checks, no conversion)."""
+        h = cls.__new__(cls)
+        h.name, h.kind, h.value = name, "constant", value
+        return h
+
     @property
     def constant(self) -> bool:
         """True for a zero or constant history (its value does not depend on t)."""
@@ -347,6 +355,22 @@ class ReframeState:
     rotation: np.ndarray
     eta: np.ndarray
     rotvec: np.ndarray | None = None
+
+
+def _state_vector(s: ReframeState) -> np.ndarray:
+    """[position, rotation (row-major), eta] of a state as one float array for the kernels.  A state made by
+    the kernels holds views into one such array (``_flat``): reused while all three fields are still views
+    of it (assigning a new array to a field makes a copy here instead); the kernels never write into y0."""
+    flat = s.__dict__.get("_flat")
+    if flat is not None and s.position.base is flat and s.rotation.base is flat and s.eta.base is flat:
+        return flat
+    return np.concatenate((s.position, np.ravel(s.rotation), s.eta)).astype(float, copy=False)
+
+
+def _state_from_vector(t: float, y: np.ndarray) -> ReframeState:
+    s = ReframeState(t=t, position=y[0:3], rotation=y[3:12].reshape(3, 3), eta=y[12:])
+    s.__dict__["_flat"] = y
+    return s
 
 
 @dataclass
@@ -720,11 +744,19 @@ class ReframeIntegrator:
         sr = np.maximum.reduceat(sdist, node_starts)
         self._umax = (np.ascontiguousarray(order, dtype=np.int64), np.ascontiguousarray(bc), np.ascontiguousarray(br),
                       np.ascontiguousarray(sc), np.ascontiguousarray(sr))
+        # the same arguments with an empty node order: the output kernel skips the search
+        self._umax_skip = (np.zeros(0, dtype=np.int64),) + self._umax[1:]
         self._Psi_c = np.ascontiguousarray(d.Psi)
 
     def _max_elastic_displacement(self, q) -> float:
         return float(_kernels().max_node_norm(self._Psi_c, N_RIGID, self.data.dpn, *self._umax,
                                               np.ascontiguousarray(q, dtype=float)))
+
+    def max_elastic_displacement(self, state: ReframeState) -> float:
+        """Largest elastic nodal displacement |Phi_i q| over all nodes of ``state``, m (body frame norm): the
+        value :meth:`output_vector` leaves out with ``max_elastic=False``."""
+        nm = self.data.n_modes
+        return self._max_elastic_displacement(state.eta[N_RIGID:nm])
 
     def _setup_paper(self):
         """G_ab = Psi^T M E_ab Psi for the coordinate transformation T_{m/n} (Eqs. 36-40).
@@ -827,7 +859,7 @@ class ReframeIntegrator:
         kern = _kernels()
         LP = self._kernel_loads(loads)
         SV, held = loads.stage_values(s.t, dt, n)
-        y0 = np.concatenate((s.position, np.ravel(s.rotation), s.eta)).astype(float, copy=False)
+        y0 = _state_vector(s)
         if self.scheme == "consistent" and self._Gk.size == 0:
             y, t, done, status = kern.consistent_steps(self._P, LP, self.data.nf, self.deformed_load_arm, SV, held,
                                                        float(s.t), dt, n, y0)
@@ -839,7 +871,7 @@ class ReframeIntegrator:
             loads.check((t, t + 0.5 * dt, t + dt))         # raises the history's ParameterError
         if status:
             raise FlexfmuError(f"reframe: non-finite state at t = {t:.6g} s (scheme {self.scheme!r})")
-        return ReframeState(t=t, position=y[0:3], rotation=y[3:12].reshape(3, 3), eta=y[12:])
+        return _state_from_vector(t, y)
 
     def _velocities(self, state):
         d = self.data
@@ -860,11 +892,16 @@ class ReframeIntegrator:
             self._points_cache[key] = PP
         return PP
 
-    def output_vector(self, state: ReframeState, loads: "_Prepared", points: np.ndarray) -> np.ndarray:
+    def output_vector(self, state: ReframeState, loads: "_Prepared", points: np.ndarray,
+                      max_elastic: bool = True) -> np.ndarray:
         """All outputs of one state as one flat array (consistent scheme): frame origin (3), its velocity (3),
         quaternion (4), omega (3), alpha (3), com position (3), com velocity (3), q (nf), qdot (nf),
         max elastic displacement (1), then per point position, velocity, acceleration, and their rigid
-        parts (6 x 3).  :meth:`snapshot` wraps it; the ReframeBody FMU reads it directly."""
+        parts (6 x 3).  :meth:`snapshot` wraps it; the ReframeBody FMU reads it directly.
+
+        max_elastic=False skips the search over the mesh for the max elastic displacement, the one output
+        whose cost grows with the mesh, and puts -1 in its place (:meth:`max_elastic_displacement` gives
+        it alone; the paper scheme computes it always); everything else is O(modes^2)."""
         if self.scheme == "paper":
             snap = self.snapshot(state, loads, points)
             return np.concatenate([snap.frame_origin, snap.frame_origin_velocity, snap.quaternion, snap.omega,
@@ -877,13 +914,14 @@ class ReframeIntegrator:
         SV, held = loads.stage_values(state.t, 0.0, 1)
         if not held and not np.all(np.isfinite(SV)):
             loads.check((state.t,))
-        y = np.concatenate((state.position, np.ravel(state.rotation), state.eta)).astype(float, copy=False)
+        y = _state_vector(state)
         kern = _kernels()
+        umax = self._umax if max_elastic else self._umax_skip
         if self._Gk.size:
             return kern.reframe_outputs(self._P, self._kernel_loads(loads), self._Gk, d.nf, self.deformed_load_arm,
-                                        SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *self._umax)
+                                        SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *umax)
         return kern.consistent_outputs(self._P, self._kernel_loads(loads), d.nf, self.deformed_load_arm,
-                                       SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *self._umax)
+                                       SV[0, 0], y, self._point_data(points), self._Psi_c, d.dpn, *umax)
 
     # ---------------------------------------------------------------- paper scheme
     def _paper_fq(self, t, A, q, loads):
@@ -1170,13 +1208,15 @@ class _Prepared:
     def constant(self) -> bool:
         return all(ld.force.constant and ld.moment.constant for ld in self.items)
 
-    def set_held(self, index: int, force, moment=None) -> None:
+    def set_held(self, index: int, force, moment=None, *, checked: bool = False) -> None:
         """Make load ``index`` constant (checked like a PointLoad's constant force / moment): the input held
-        over a co-simulation step."""
+        over a co-simulation step.  checked=True: force and moment are finite float (3,) arrays already
+        (the caller checked them), taken as they are."""
         ld = self.items[index]
-        ld.force = _History(force, "load.force")
+        make = _History.held if checked else _History
+        ld.force = make(force, "load.force")
         if moment is not None:
-            ld.moment = _History(moment, "load.moment")
+            ld.moment = make(moment, "load.moment")
         if self._held is not None:        # every load was constant and still is: update its row in place
             self._held[0, :, index, 0:3] = ld.force.raw(0.0)
             self._held[0, :, index, 3:6] = ld.moment.raw(0.0)

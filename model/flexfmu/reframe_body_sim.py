@@ -52,6 +52,9 @@ OUTPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES
                 + tuple(f"com_vel_{a}" for a in AXES) + tuple(f"out_pos_{a}" for a in AXES)
                 + tuple(f"out_vel_{a}" for a in AXES) + tuple(f"out_acc_{a}" for a in AXES)
                 + tuple(f"out_acc_rigid_{a}" for a in AXES) + ("max_elastic_displacement",))
+#: outputs whose cost grows with the mesh (a search over all nodes): output_vector(include_deferred=False)
+#: leaves them out and deferred_output_vector() gives them, so the FMU computes them only when they are read
+DEFERRED_OUTPUTS = ("max_elastic_displacement",)
 _AUTO_STEP_FRACTION = 0.9   # of the RK4 stability limit, for internal_step = 0
 
 
@@ -177,7 +180,9 @@ class ReframeBodySimulator:
         self._columns = np.r_[0:22, o:o + 9, o + 15:o + 18, 22 + 2 * nf]
         self.state = integ.initial_state(v0=(c.v0_x, c.v0_y, c.v0_z), omega0=(c.omega0_1, c.omega0_2, c.omega0_3))
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
-        self._last_rates = None      # (state, omega, alpha, force, moment) of the last output_vector (exponential)
+        # (state, |omega|, |alpha|, force, moment) of a state with the inputs its step held (see _rates)
+        self._last_rates = None
+        self._rates_needed = not integ.stability_limited and c.internal_step == 0
         if not integ.stability_limited:
             # |d alpha| <= (|arm| |dF| + |dM|) / J_min: the change of alpha when the held inputs change
             self._arm = float(np.linalg.norm(integ.data.Xc[self._loads.items[0].node]))
@@ -224,17 +229,28 @@ class ReframeBodySimulator:
         return n, why
 
     def _rates(self):
-        """|omega| and |alpha| at the start of a communication step with the new inputs: from the outputs of
-        the current state if output_vector computed them (the FMU does, after every step), alpha corrected
-        by a bound of the input change; else from the output kernel."""
+        """|omega| and |alpha| at the start of a communication step with the new inputs, for the exponential
+        split: those of the state with the inputs its step held (output_vector's, when the outputs were
+        read; else computed), alpha then raised by a bound of the input change.  Always computed this way
+        (_ensure_rates runs before any input change), so the split, and so the results, do not depend on
+        whether or when the outputs were read."""
+        self._ensure_rates()
+        _, w, a, f, m = self._last_rates
+        if f is self._force and m is self._moment:
+            return w, a
+        da = (self._arm * math.dist(self._force, f) + math.dist(self._moment, m)) / self._J_min
+        return w, a + da
+
+    def _ensure_rates(self) -> None:
+        """Remember |omega|, |alpha| of the current state with the inputs now held (call before they change)."""
         last = self._last_rates
-        if last is not None and last[0] is self.state:
-            _, w, a, f, m = last
-            da = (self._arm * float(np.linalg.norm(self._force - f)) + float(np.linalg.norm(self._moment - m))) \
-                / self._J_min
-            return w, a + da
-        out = self.integrator.output_vector(self.state, self._loads, self._points)
-        return float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16]))
+        if last is None or last[0] is not self.state:
+            self._remember_rates(self.integrator.output_vector(self.state, self._loads, self._points,
+                                                               max_elastic=False))
+
+    def _remember_rates(self, out) -> None:
+        rates = out[10:16].tolist()
+        self._last_rates = (self.state, math.hypot(*rates[0:3]), math.hypot(*rates[3:6]), self._force, self._moment)
 
     def set_inputs(self, **inputs: float) -> None:
         for name, value in inputs.items():
@@ -248,6 +264,8 @@ class ReframeBodySimulator:
 
     def _hold(self, force, moment) -> None:
         if not (np.array_equal(force, self._force) and np.array_equal(moment, self._moment)):
+            if self._rates_needed:
+                self._ensure_rates()
             self._force, self._moment = force, moment
             self._loads.set_held(0, force, moment if self._accepts_moment else None)
         self._held_list = force.tolist() + moment.tolist()
@@ -260,10 +278,12 @@ class ReframeBodySimulator:
             self.set_inputs(**dict(zip(INPUT_NAMES, vals)))
             return
         self.inputs = dict(zip(INPUT_NAMES, vals))
-        if vals[0:6] != self._held_list:            # lists: cheaper than arrays and np.array_equal
-            self._held_list = vals[0:6]
+        if vals != self._held_list:                 # lists: cheaper than arrays and np.array_equal
+            if self._rates_needed:
+                self._ensure_rates()
+            self._held_list = vals
             self._force, self._moment = np.array(vals[0:3]), np.array(vals[3:6])
-            self._loads.set_held(0, self._force, self._moment if self._accepts_moment else None)
+            self._loads.set_held(0, self._force, self._moment if self._accepts_moment else None, checked=True)
 
     def step(self, step_size: float) -> None:
         """Equal internal steps over step_size (s) with the inputs held, in one kernel call (see _split)."""
@@ -275,16 +295,20 @@ class ReframeBodySimulator:
             self._last_split = n
         self.state = self.integrator.advance_steps(self.state, step_size / n, n, self._loads)
 
-    def output_vector(self) -> np.ndarray:
-        """All outputs (OUTPUT_NAMES order) of the current state."""
+    def output_vector(self, include_deferred: bool = True) -> np.ndarray:
+        """All outputs (OUTPUT_NAMES order) of the current state.  include_deferred=False leaves the
+        DEFERRED_OUTPUTS out of the computation (their places hold -1; scheme "paper": computed anyway)."""
         integ = self.integrator
         if integ.scheme != "paper":
-            out = integ.output_vector(self.state, self._loads, self._points)
-            if not integ.stability_limited:
-                self._last_rates = (self.state, float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16])),
-                                    self._force, self._moment)
+            out = integ.output_vector(self.state, self._loads, self._points, max_elastic=include_deferred)
+            if self._rates_needed and (self._last_rates is None or self._last_rates[0] is not self.state):
+                self._remember_rates(out)        # the inputs are the state's own: see _rates
             return out[self._columns]
         return output_values(integ.snapshot(self.state, self._loads, self._points))
+
+    def deferred_output_vector(self) -> list[float]:
+        """The DEFERRED_OUTPUTS of the current state, in their order."""
+        return [self.integrator.max_elastic_displacement(self.state)]
 
     def outputs(self) -> dict[str, float]:
         return dict(zip(OUTPUT_NAMES, self.output_vector().tolist()))
@@ -302,7 +326,12 @@ class ReframeBodySimulator:
         self.state = ReframeState(t=float(data["t"]), position=np.array(data["position"]),
                                   rotation=np.array(data["rotation"]), eta=np.array(data["eta"]),
                                   rotvec=None if data["rotvec"] is None else np.array(data["rotvec"]))
-        self.set_inputs(**data["inputs"])
+        needed, self._rates_needed = self._rates_needed, False     # not with the inputs held before the restore
+        try:
+            self.set_inputs(**data["inputs"])
+        finally:
+            self._rates_needed = needed
+        self._last_rates = None          # then computed with the state's own inputs, as in an uninterrupted run
 
 
 def _info(names, unit, text):
