@@ -118,12 +118,13 @@ def _check_matrix(A, name: str, n_dof: int, kind: str) -> sp.csr_matrix:
     scale = float(np.max(np.abs(A.data))) if A.nnz else 0.0
     if kind == "M" and scale == 0.0:
         raise ParameterError(name, "mass matrix is zero", "symmetric positive semi-definite with mass > 0")
-    asym = A - A.T
+    At = A.T.tocsr()                      # once: used twice (0.03 s on the 51k-DOF plate)
+    asym = A - At
     asym_max = float(np.max(np.abs(asym.data))) if asym.nnz else 0.0
     if asym_max > SYMMETRY_RTOL * scale:
         raise ParameterError(name, f"not symmetric: max|A - A^T| / max|A| = {asym_max / scale:.3g}",
                              f"symmetric to a relative tolerance of {SYMMETRY_RTOL:g}")
-    A = ((A + A.T) * 0.5).tocsr()
+    A = ((A + At) * 0.5).tocsr()
     A.sum_duplicates()
     A.sort_indices()
     diag = A.diagonal()
