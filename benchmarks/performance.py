@@ -525,8 +525,8 @@ def run(quick: bool) -> tuple[list, list, dict]:
         npz = save_structure(tmp / "plate_10x2x1.npz", small.data.structure)
         noop_calls = noop_fmu_calls(noop)
         floor = noop_calls["cycle"]
-        row("fmpy + pythonfmu floor per call (no-op FMU): setReal(3) | doStep | getReal(6)",
-            " | ".join(fmt_t(noop_calls[c]) for c in ("setReal", "doStep", "getReal")), "–", None,
+        row("fmpy + pythonfmu floor per call (no-op FMU): setReal(3) / doStep / getReal(6)",
+            " / ".join(fmt_t(noop_calls[c]) for c in ("setReal", "doStep", "getReal")), "–", None,
             "median per call")
         rb = reframebody_calls(fmus["ReframeBody"], npz)
         fmu, held, lib, lib_held = rb["fmu"], rb["fmu_held"], rb["lib"], rb["lib_held"]
@@ -604,13 +604,26 @@ def run(quick: bool) -> tuple[list, list, dict]:
     n_frame, t_frame = frame_modal_time()
     row(f"frame set-up: mesh + assembly + 10 modes, {n_frame} DOFs", fmt_t(t_frame), "2 s", t_frame / 2.0)
     if not quick:
+        from flexfmu.modal_basis import _mkl_pardiso, modal_basis
+        from flexfmu.models import load_model
+        pardiso = _mkl_pardiso() is not None and os.environ.get("FLEXFMU_PARDISO", "1") != "0"
         _, info_d = _plate_integrator((100, 8, 2))
         row(f"plate set-up: mesh + assembly, {info_d['n_dof']} DOFs", fmt_t(info_d["assembly"]), "–", None)
         row(f"plate modal basis (10 flexible), {info_d['n_dof']} DOFs", fmt_t(info_d["modal"]), "2 s",
-            info_d["modal"] / 2.0, "sparse shift-invert, computed")
+            info_d["modal"] / 2.0, "block Lanczos, shift-invert, computed, "
+            + ("MKL PARDISO (pardiso extra)" if pardiso else "SuperLU (no pardiso extra)"))
+        if pardiso:                        # the same without the optional extra
+            os.environ["FLEXFMU_PARDISO"] = "0"
+            try:
+                plate = load_model("paper_plate")
+                t0 = time.perf_counter()
+                modal_basis(plate, 10, cache=False)
+                t_superlu = time.perf_counter() - t0
+            finally:
+                del os.environ["FLEXFMU_PARDISO"]
+            row("  the same with SuperLU (FLEXFMU_PARDISO=0, the default install)", fmt_t(t_superlu), "2 s",
+                t_superlu / 2.0, "scipy's direct solver only")
         row(f"plate reframe invariants, {info_d['n_dof']} DOFs", fmt_t(info_d["integrator"]), "–", None)
-        from flexfmu.modal_basis import modal_basis
-        from flexfmu.models import load_model
         modal_basis(load_model("paper_plate"), 10)                    # fills the cache if empty
         t0 = time.perf_counter()
         modal_basis(load_model("paper_plate"), 10)
@@ -642,8 +655,9 @@ def write_report(path: Path, rows, extra, mach, quick, elapsed):
         "Written by `benchmarks/performance.py` (also `flexfmu bench`); the last run"
         + (" (--quick)" if quick else "") + f", {elapsed:.0f} s wall. Per-step and record figures are CPU time of"
         " the benchmark process (best of several; the machine's two cores are shared with other jobs, which"
-        " inflate wall time far more than CPU time); set-up and fresh-process instantiation figures are wall"
-        " time. Expect ±20 % between runs; each ratio is from this one run. Speed is measured here only, never"
+        " inflate wall time far more than CPU time); the FMU figures marked \"median per call\" are the median wall"
+        " time of each FMI call through fmpy (interleaved with the library's calls they are compared with);"
+        " set-up and fresh-process instantiation figures are wall time. Expect ±20 % between runs; each ratio is from this one run. Speed is measured here only, never"
         " asserted in tests; `tests/test_performance_equivalence.py` checks that the fast paths compute the"
         " same numbers.",
         "",
