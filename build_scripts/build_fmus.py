@@ -6,8 +6,7 @@ modelDescription.xml with what pythonfmu cannot declare and validate the result 
 
 Post-processing: units and UnitDefinitions, a DefaultExperiment, outputs declared
 initial="calculated" with InitialUnknowns (their start values depend on the parameters), and the
-fmi2 shim (build_scripts/fmi2_shim.c) in front of pythonfmu's Linux binary so that a logged error
-returns fmi2Error instead of pythonfmu's fmi2Fatal.
+flexfmu runtime (build_scripts/fmu_runtime.py) in place of pythonfmu's binary.
 """
 from __future__ import annotations
 
@@ -22,7 +21,6 @@ from xml.etree import ElementTree as ET
 ROOT = Path(__file__).resolve().parents[1]
 FMU_SOURCES = ROOT / "fmu_src"
 PACKAGE = ROOT / "model" / "flexfmu"
-SLAVE_BASE = FMU_SOURCES / "flexfmu_fmu_base.py"   # FMI plumbing shared by the slave scripts
 
 # SI base-unit exponents of every unit used.
 UNITS = {
@@ -96,13 +94,12 @@ def _rewrite_model_description(fmu: Path, info: dict, experiment: dict) -> None:
     tmp.replace(fmu)
 
 
-def _apply_shim(fmu: Path) -> None:
-    """Put the fmi2Error shim (build_scripts/fmi2_shim.c) in front of pythonfmu's Linux binary."""
+def _runtime_module():
     import importlib.util
-    spec = importlib.util.spec_from_file_location("fmi2_shim", Path(__file__).resolve().with_name("fmi2_shim.py"))
+    spec = importlib.util.spec_from_file_location("fmu_runtime", Path(__file__).resolve().with_name("fmu_runtime.py"))
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    module.apply_shim(fmu)
+    return module
 
 
 def build(out: Path) -> list[Path]:
@@ -110,16 +107,22 @@ def build(out: Path) -> list[Path]:
     from pythonfmu.builder import FmuBuilder
 
     out.mkdir(parents=True, exist_ok=True)
+    fmus = _fmus()
+    from flexfmu import __version__
+    from flexfmu.fmi.loader import package_build_id
+    runtime = _runtime_module()
+    front, bridge = runtime.compile_runtime(runtime.build_folder())
+    build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
     built = []
-    for name, script, info, experiment in _fmus():
+    for name, script, info, experiment in fmus:
         with tempfile.TemporaryDirectory() as tmp:
             # Bundle a clean copy of the package (no caches) under the import name flexfmu.
             package = Path(tmp) / "flexfmu"
             shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package, SLAVE_BASE],
+            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
                                             canGetAndSetFMUstate=True, canSerializeFMUstate=True))
             _rewrite_model_description(fmu, info, experiment)
-            _apply_shim(fmu)
+            runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": name})
             target = out / f"{name}.fmu"
             shutil.move(str(fmu), target)
         problems = validate_fmu(str(target))

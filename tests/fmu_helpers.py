@@ -1,7 +1,10 @@
-"""Drive built FMUs through fmpy's low-level FMU2Slave, capturing the log."""
+"""Drive built FMUs through fmpy's low-level FMU2Slave, capturing the log.  Every Instance extracts
+its FMU afresh and deletes the extraction when freed, as fmpy.simulate_fmu does: a shared extraction
+would hide what users meet on their second load."""
 from __future__ import annotations
 
 import ctypes
+import shutil
 from pathlib import Path
 
 from fmpy import extract, read_model_description
@@ -19,19 +22,15 @@ def build_fmus(out: Path) -> dict[str, Path]:
 
 
 class Instance:
-    """One FMU instance with a log list; vr lookup by name; set/get by name."""
-
-    _extracted: dict = {}
+    """One FMU instance, on its own extraction, with a log list; vr lookup by name; set/get by name."""
 
     def __init__(self, fmu: Path, name: str = "instance", **start_values):
         self.md = read_model_description(str(fmu))
-        key = str(fmu)
-        if key not in Instance._extracted:
-            Instance._extracted[key] = extract(str(fmu))
+        self.unzipped = extract(str(fmu))
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
         self.log: list[tuple[int, str, str]] = []
-        self.failed = False   # set after a failed call; see free()
+        self.failed = False   # set after a failed call
 
         def logger(component, instance_name, status, category, message):
             self.log.append((status, (category or b"").decode(), (message or b"").decode()))
@@ -41,7 +40,7 @@ class Instance:
         callbacks.logger = self._logger
         callbacks.allocateMemory = ctypes.cast(None, type(callbacks.allocateMemory))
         callbacks.freeMemory = ctypes.cast(None, type(callbacks.freeMemory))
-        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=Instance._extracted[key],
+        self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
         self.fmu.setupExperiment(startTime=0.0)
@@ -70,17 +69,21 @@ class Instance:
     def messages(self) -> str:
         return "\n".join(m for _, _, m in self.log)
 
-    def expect_failure(self, call, *args, **kwargs):
-        """Run an FMI call that must fail with fmi2Error (status 3); returns the exception."""
+    def expect_failure(self, call, *args, status=3, **kwargs):
+        """Run an FMI call that must fail with ``status`` (fmi2Error = 3); returns the exception."""
         try:
             call(*args, **kwargs)
         except Exception as exc:   # fmpy raises FMICallException with .status
             self.failed = True
-            assert getattr(exc, "status", None) == 3, f"expected fmi2Error (3), got {exc!r}"
+            assert getattr(exc, "status", None) == status, f"expected status {status}, got {exc!r}"
             return exc
         raise AssertionError(f"{getattr(call, '__name__', call)} did not fail")
 
     def free(self):
-        """Terminate and free; after fmi2Error the FMI standard allows both (the shim makes them safe)."""
-        self.fmu.terminate()
+        """Free the instance (fmi2FreeInstance is legal in every state) and delete the extraction."""
+        if self.fmu is None:
+            return
         self.fmu.freeInstance()
+        self.fmu.freeLibrary()
+        self.fmu = None
+        shutil.rmtree(self.unzipped, ignore_errors=True)

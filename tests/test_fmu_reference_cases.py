@@ -30,23 +30,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from fmpy import extract, read_model_description, simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 from fmpy.util import read_csv
 
-from fmu_helpers import build_fmus
 
 REFERENCE = Path(__file__).resolve().parent / "reference"
 FMUS = ("FFRBeam", "ReframeBody")
 CASES = sorted(p.parent for fmu in FMUS for p in (REFERENCE / fmu).glob(f"*/{fmu}_ref.csv"))
 OPT_KEYS = ("StartTime", "StopTime", "StepSize", "RelTol")
-
-
-@pytest.fixture(scope="module")
-def extracted(tmp_path_factory):
-    """Both FMUs built once, and extracted once (simulate_fmu accepts the extracted folder)."""
-    out = tmp_path_factory.mktemp("dist")
-    fmus = build_fmus(out)
-    return {name: extract(str(path), unzipdir=str(out / f"{name}_extracted")) for name, path in fmus.items()}
 
 
 def test_every_fmu_has_reference_cases():
@@ -107,20 +98,21 @@ def column_scales(ref: np.ndarray, columns: list[str]) -> dict[str, float]:
 
 
 @pytest.mark.parametrize("case", CASES, ids=[f"{c.parent.name}/{c.name}" for c in CASES])
-def test_reference_case(extracted, case):
+def test_reference_case(fmus, case):
     fmu = case.parent.name
     assert (case / "README.md").is_file(), f"{case} has no README.md of provenance"
     assert f"{fmu}_start.json" in (case / "README.md").read_text(), "the README must explain the start-value file"
     opt = read_opt(case / f"{fmu}_ref.opt")
     ref = read_csv(case / f"{fmu}_ref.csv")
     columns = [c for c in ref.dtype.names if c != "time"]
-    md = read_model_description(extracted[fmu])
+    md = read_model_description(str(fmus[fmu]))
     outputs = {v.name for v in md.modelVariables if v.causality == "output"}
     assert set(columns) <= outputs, f"reference columns {sorted(set(columns) - outputs)} are not outputs of {fmu}"
 
     h = opt["StepSize"]
     tic = time.perf_counter()
-    res = simulate_fmu(extracted[fmu], fmi_type="CoSimulation", start_time=opt["StartTime"],
+    res = simulate_fmu(str(fmus[fmu]),   # a fresh extraction per case, as users run it
+                       fmi_type="CoSimulation", start_time=opt["StartTime"],
                        stop_time=opt["StopTime"], step_size=h, output_interval=h,
                        relative_tolerance=opt["RelTol"], start_values=start_values(case, fmu),
                        input=input_signals(case, fmu, md, h), output=columns)

@@ -1,0 +1,158 @@
+"""The flexfmu FMU runtime: compile it and install it into a pythonfmu-built FMU.
+
+pythonfmu builds the modelDescription and the FMU's layout; its binary is replaced by ours
+(build_scripts/runtime/): a front library with no Python symbols (the FMI entry points, the
+call-sequence table, finding libpython) and a Python bridge compiled against this interpreter's
+headers.  The resources get what the binary needs to start Python and load the slave without any
+set-up on the build machine, and what a user needs to move the FMU to another one:
+
+* ``flexfmu_runtime.txt``: libpython, the interpreter's home, the environment's site-packages;
+* ``flexfmu_build.json``: model, flexfmu version, build id (a digest of the bundled package), GUID;
+* ``flexfmu_loader.py``: model/flexfmu/fmi/loader.py, run by the binary on each new extraction;
+* ``requirements.txt``: the exact versions of the packages the slave imports, built with.
+
+Linux x86-64 only: pythonfmu's binaries for other platforms are removed, since they would run the
+slave without this runtime; so is pythonfmu's copy of itself (the slave imports the installed one,
+listed in requirements.txt).
+"""
+from __future__ import annotations
+
+import json
+import platform
+import re
+import shutil
+import site
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import zipfile
+from importlib import metadata
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+HERE = Path(__file__).resolve().parent
+RUNTIME = HERE / "runtime"
+LOADER = HERE.parent / "model" / "flexfmu" / "fmi" / "loader.py"
+
+
+class RuntimeBuildError(RuntimeError):
+    """The runtime cannot be built or installed here."""
+
+
+def _fmi2_headers() -> Path:
+    """The FMI 2.0 headers shipped with fmpy (fmi2Functions.h, ...)."""
+    import fmpy
+    headers = Path(fmpy.__file__).resolve().parent / "c-code"
+    if not (headers / "fmi2Functions.h").is_file():
+        raise RuntimeBuildError(f"FMI 2.0 headers not found in {headers} (fmpy installation incomplete?)")
+    return headers
+
+
+def _compiler() -> str:
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        raise RuntimeBuildError(f"the FMU runtime is built for linux64 only, not on {sys.platform}/{platform.machine()}")
+    gcc = shutil.which("gcc") or shutil.which("cc")
+    if gcc is None:
+        raise RuntimeBuildError("no C compiler (gcc) on PATH: it is needed to build the FMU runtime; install it, "
+                                "e.g. `apt-get install gcc`")
+    return gcc
+
+
+def _run(command: list[str]) -> None:
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0:
+        raise RuntimeBuildError(f"compiling the FMU runtime failed:\n{' '.join(command)}\n{result.stderr}")
+
+
+def compile_runtime(folder: Path) -> tuple[Path, Path]:
+    """(front, bridge) shared libraries compiled into ``folder``."""
+    gcc = _compiler()
+    common = ["-std=c11", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-format-truncation",
+              "-fvisibility=hidden",  # messages may be cut to their buffers on purpose
+              f"-I{_fmi2_headers()}", f"-I{RUNTIME}"]
+    front, bridge = folder / "front.so", folder / "bridge.so"
+    _run([gcc, *common, str(RUNTIME / "flexfmu_fmi2.c"), "-o", str(front), "-ldl", "-lpthread", "-lm"])
+    include = sysconfig.get_paths()["include"]
+    if not (Path(include) / "Python.h").is_file():
+        raise RuntimeBuildError(f"Python.h not found in {include}: install this Python's headers (e.g. python3-dev)")
+    # no -lpython: the symbols come from the libpython the front loads globally, or from a Python host
+    _run([gcc, *common, f"-I{include}", str(RUNTIME / "flexfmu_python.c"), "-o", str(bridge)])
+    return front, bridge
+
+
+def libpython() -> Path:
+    """This interpreter's shared libpython (a C host must load it)."""
+    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY")
+    folder = Path(sysconfig.get_config_var("LIBDIR") or "")
+    path = folder / name
+    if not sysconfig.get_config_var("Py_ENABLE_SHARED") or not path.is_file():
+        raise RuntimeBuildError(f"this Python ({sys.executable}) has no shared libpython ({path}): C hosts could not "
+                                f"load the FMU; build with a Python configured with --enable-shared")
+    return path
+
+
+def runtime_settings() -> str:
+    """resources/flexfmu_runtime.txt: where the embedded interpreter and the packages are on this machine."""
+    sites = [p for p in site.getsitepackages() if Path(p).is_dir()]
+    lines = ["# Written at build time; each line can be overridden by an environment variable (docs/fmu.md):",
+             "# FLEXFMU_LIBPYTHON, FLEXFMU_PYTHONHOME, FLEXFMU_SITE_PACKAGES (':'-separated).",
+             f"libpython={libpython()}", f"python_home={sys.base_prefix}",
+             f"python_version={sys.version_info.major}.{sys.version_info.minor}"]
+    lines += [f"site={p}" for p in sites]
+    return "\n".join(lines) + "\n"
+
+
+def _requirement_name(spec: str) -> str | None:
+    """The distribution a requirement names, or None if it is only for an extra."""
+    if "extra ==" in spec.replace("extra==", "extra =="):
+        return None
+    return re.split(r"[\s<>=!~;\[(]", spec.strip(), maxsplit=1)[0]
+
+
+def requirements(root: str = "flexfmu") -> str:
+    """resources/requirements.txt: the exact installed version of every package ``root`` needs at run
+    time (recursively, extras left out)."""
+    seen: dict[str, str] = {}
+    todo = [_requirement_name(r) for r in (metadata.requires(root) or [])]
+    while todo:
+        name = todo.pop()
+        if not name or name.lower() in seen:
+            continue
+        try:
+            version = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue            # a platform-specific dependency not installed here
+        seen[name.lower()] = f"{name}=={version}"
+        todo += [_requirement_name(r) for r in (metadata.requires(name) or [])]
+    return "# The Python packages this FMU was built with (python -m pip install -r requirements.txt)\n" + \
+        "\n".join(sorted(seen.values(), key=str.lower)) + "\n"
+
+
+def install(fmu: Path, front: Path, bridge: Path, build_info: dict) -> None:
+    """Put the runtime into the pythonfmu FMU at ``fmu`` (in place)."""
+    with zipfile.ZipFile(fmu) as zf:
+        members = {info.filename: zf.read(info) for info in zf.infolist()}
+    description = ET.fromstring(members["modelDescription.xml"])
+    model_id = description.find("CoSimulation").get("modelIdentifier")
+    info = {**build_info, "guid": description.get("guid"), "model": model_id}
+    kept = {name: data for name, data in members.items()
+            if not name.startswith(("binaries/", "resources/pythonfmu/")) and name != "resources/slavemodule.txt"}
+    kept[f"binaries/linux64/{model_id}.so"] = front.read_bytes()
+    kept[f"binaries/linux64/{model_id}_python.so"] = bridge.read_bytes()
+    kept["resources/flexfmu_loader.py"] = LOADER.read_bytes()
+    kept["resources/flexfmu_build.json"] = json.dumps(info, indent=1).encode()
+    kept["resources/flexfmu_runtime.txt"] = runtime_settings().encode()
+    kept["resources/requirements.txt"] = requirements().encode()
+    tmp = fmu.with_name(fmu.name + ".tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
+        for name, data in sorted(kept.items()):
+            entry = zipfile.ZipInfo(name, date_time=(2020, 1, 1, 0, 0, 0))
+            entry.compress_type = zipfile.ZIP_DEFLATED
+            entry.external_attr = (0o755 if name.endswith(".so") else 0o644) << 16
+            zf.writestr(entry, data)
+    tmp.replace(fmu)
+
+
+def build_folder() -> Path:
+    return Path(tempfile.mkdtemp(prefix="flexfmu-runtime-"))

@@ -1,0 +1,65 @@
+/*
+ * flexfmu_bridge.h - the interface between the FMU's front library (flexfmu_fmi2.c: FMI 2.0 entry
+ * points, call-sequence table, finding libpython; no Python symbols) and the Python bridge
+ * (flexfmu_python.c: compiled against Python.h, loaded by the front once libpython's symbols are
+ * global).  The front owns FMI semantics; the bridge only turns calls into Python method calls on the
+ * slave's plumbing (flexfmu.fmi.plumbing) and Python exceptions into statuses and one log message.
+ */
+#ifndef FLEXFMU_BRIDGE_H
+#define FLEXFMU_BRIDGE_H
+
+#include <stddef.h>
+
+#define FLEXFMU_BRIDGE_VERSION 1
+
+/* Statuses as fmi2Status (0 OK, 1 Warning, 2 Discard, 3 Error, 4 Fatal). */
+enum { BRIDGE_OK = 0, BRIDGE_WARNING = 1, BRIDGE_DISCARD = 2, BRIDGE_ERROR = 3, BRIDGE_FATAL = 4 };
+
+/* Where the bridge reports a message: status, category ("logStatusError", "logAll", ...), text. */
+typedef void BridgeLog(void *context, int status, const char *category, const char *message);
+
+/* What the front read from resources/flexfmu_runtime.txt and the environment. */
+typedef struct {
+    const char *python_home;     /* the embedded interpreter's home (its standard library) */
+    const char *site_dirs;       /* ':'-separated folders added with site.addsitedir */
+    const char *python_version;  /* "3.11": the version the bridge was compiled for */
+} BridgeSettings;
+
+typedef enum {
+    CALL_ENTER_INITIALIZATION_MODE, CALL_EXIT_INITIALIZATION_MODE, CALL_TERMINATE, CALL_RESET
+} BridgeSimpleCall;
+
+typedef enum { VALUE_REAL, VALUE_INTEGER, VALUE_BOOLEAN, VALUE_STRING } BridgeValueType;
+
+typedef struct {
+    int version;
+    /* Initialise Python in this process if nobody has (C hosts), else check its version.  Returns 0
+       on success; else writes why into `error`. */
+    int (*start)(const BridgeSettings *settings, char *error, size_t error_size);
+    /* A new slave; NULL after logging why.  `log`/`context` are kept for the instance's lifetime. */
+    void *(*instantiate)(const char *resources_dir, const char *instance_name, const char *guid, int visible,
+                         BridgeLog *log, void *context);
+    void (*free_instance)(void *slave);
+    int (*setup_experiment)(void *slave, int tolerance_defined, double tolerance, double start_time,
+                            int stop_time_defined, double stop_time);
+    int (*simple_call)(void *slave, BridgeSimpleCall call);
+    int (*do_step)(void *slave, double current_time, double step_size);
+    /* get: `values` is double*, int* (fmi2Integer/fmi2Boolean) or const char ** (valid until the next call) */
+    int (*get_values)(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, void *values);
+    int (*set_values)(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, const void *values);
+    /* FMU states are opaque Python objects owned by the caller until free_state. */
+    int (*get_state)(void *slave, void **state);
+    int (*set_state)(void *slave, void *state);
+    void (*free_state)(void *state);
+    /* serialize: with bytes == NULL, writes the size only */
+    int (*serialize_state)(void *slave, void *state, char *bytes, size_t *size);
+    int (*deserialize_state)(void *slave, const char *bytes, size_t size, void **state);
+    /* the time of the last successful step (fmi2LastSuccessfulTime) */
+    int (*last_successful_time)(void *slave, double *time);
+} BridgeApi;
+
+/* The bridge library's one exported symbol. */
+typedef const BridgeApi *BridgeEntry(void);
+#define FLEXFMU_BRIDGE_ENTRY "flexfmu_bridge_api"
+
+#endif

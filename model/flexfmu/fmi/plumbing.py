@@ -1,0 +1,372 @@
+"""The FMI behaviour of one flexfmu FMU instance, as the FMU's binary (build_scripts/runtime) calls it.
+
+The binary owns the call sequence (its table in flexfmu_fmi2.c, printed in docs/fmu.md) and the
+FMU-state header; this class owns the variables: value references, types, causality, finiteness, the
+simulator's life cycle, time, and the FMU state's content.  A refused call raises :class:`FmiStatus`
+(its status and one message, which the binary logs); the instance is left as it was.  Messages the
+simulator wants logged with status OK go to ``messages``, a list of (status, category, text) that the
+binary drains after every call.
+
+Per-step cost (what a master pays on top of the simulator's own step): inputs and outputs live in
+plain lists indexed by position; setting an input to the value it has changes nothing, and the
+simulator gets its inputs (``set_input_vector``, else ``set_inputs``) only after a change — every
+simulator holds its inputs until they are set again.  Outputs are computed when first read after a
+step, not in doStep: a master that reads a few outputs, or reads less often than it steps, does not pay
+for the rest.  The values are those of the state and the inputs the step held, exactly what an eager
+computation after the step gives.  A module's DEFERRED_OUTPUTS (costly, e.g. a search over the mesh) are
+computed only when one of them is read.  Levels of ``_outputs_valid``: 0 none, 1 all but the deferred, 2 all.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, fields
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Integer, Real, String
+
+from flexfmu.errors import FlexfmuError, StepRejected
+
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
+#: relative tolerance on currentCommunicationPoint against the FMU's own time
+TIME_RTOL = 1e-9
+#: format of the FMU state's content (the binary adds its own header with the GUID)
+STATE_FORMAT = 1
+_KIND = {str: String, int: Integer, float: Real, bool: Boolean}
+_TYPE_NAME = {Real: "Real", Integer: "Integer", Boolean: "Boolean", String: "String"}
+
+
+class FmiStatus(Exception):
+    """A call that returns ``fmi_status`` (fmi2Error, or fmi2Discard for a step a smaller one may
+    take) with its text as the one logged message."""
+
+    def __init__(self, message: str, fmi_status: int = ERROR):
+        super().__init__(message)
+        self.fmi_status = fmi_status
+
+
+class Plumbing:
+    """One instance.  ``module`` provides INPUT_NAMES, OUTPUT_NAMES, VARIABLE_INFO {name: (unit,
+    description)} and optionally DEFERRED_OUTPUTS; the simulator is built from a config (the
+    parameters) and has set_inputs(**) (or set_input_vector/output_vector), step(h), outputs(),
+    get_state()/set_state(dict), time and optionally a ``messages`` list."""
+
+    def __init__(self, slave, config_class, simulator_class, module):
+        self.slave = slave
+        self.config_class = config_class
+        self.simulator_class = simulator_class
+        self.input_names = module.INPUT_NAMES
+        self.output_names = module.OUTPUT_NAMES
+        self.variable_info = module.VARIABLE_INFO
+        self.messages: list[tuple[int, str, str]] = []
+        self._defaults = asdict(config_class())
+        deferred = getattr(module, "DEFERRED_OUTPUTS", ())
+        self._deferred_index = [self.output_names.index(name) for name in deferred]
+        self._clear()
+        for field in fields(config_class):
+            kind = _KIND[type(self._defaults[field.name])]
+            slave.register_variable(kind(field.name, causality=Fmi2Causality.parameter,
+                                         variability=Fmi2Variability.fixed,
+                                         description=self.variable_info[field.name][1],
+                                         getter=self._parameter_getter(field.name),
+                                         setter=self._parameter_setter(field.name)))
+        for i, name in enumerate(self.input_names):
+            slave.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                                         description=self.variable_info[name][1],
+                                         getter=self._input_getter(i), setter=self._input_setter(i)))
+        for i, name in enumerate(self.output_names):
+            slave.register_variable(Real(name, causality=Fmi2Causality.output, variability=Fmi2Variability.continuous,
+                                         initial=Fmi2Initial.exact, description=self.variable_info[name][1],
+                                         getter=self._output_getter(i)))
+        self._variables = dict(slave.vars)                    # value reference -> pythonfmu variable
+        self._getters = {kind: {vr: v.getter for vr, v in self._variables.items() if type(v) is kind}
+                         for kind in _TYPE_NAME}
+        self._setters = {kind: {vr: v.setter for vr, v in self._variables.items()
+                                if type(v) is kind and v.causality != Fmi2Causality.output}
+                         for kind in _TYPE_NAME}
+
+    def _clear(self):
+        """The state after fmi2Instantiate / fmi2Reset."""
+        self._values = dict(self._defaults)                   # the parameters
+        self._inputs = getattr(self, "_inputs", [])
+        self._inputs[:] = [0.0] * len(self.input_names)      # in place: the input setters hold this list
+        self._inputs_changed = True                           # not yet given to the simulator
+        self._outputs = [0.0] * len(self.output_names)        # OUTPUT_NAMES order, of the last step
+        self._outputs_valid = 0
+        self._sim = None
+        self._vector_api = False
+        self._start_time = 0.0
+
+    # ---- variable access
+    def _parameter_getter(self, name):
+        return lambda: self._values[name]
+
+    def _parameter_setter(self, name):
+        def set_parameter(value):
+            if self._sim is not None:
+                raise FmiStatus(f"{name}: a fixed parameter can be set only before fmi2ExitInitializationMode")
+            self._values[name] = value
+        return set_parameter
+
+    def _input_getter(self, i):
+        return lambda: self._inputs[i]
+
+    def _input_setter(self, i):
+        inputs = self._inputs
+
+        def set_input(value):
+            if value != inputs[i]:
+                inputs[i] = value
+                self._inputs_changed = True
+        return set_input
+
+    def _output_getter(self, i):
+        level = 2 if i in self._deferred_index else 1         # the validity level this output needs
+
+        def get_output():
+            if self._outputs_valid < level:
+                self._read_outputs(level)
+            return self._outputs[i]
+        return get_output
+
+    def _refuse_references(self, function: str, kind, vrs, setting: bool):
+        """Raise the FmiStatus that names the first value reference ``function`` cannot take."""
+        for vr in vrs:
+            variable = self._variables.get(vr)
+            if variable is None:
+                raise FmiStatus(f"{function}: unknown value reference {vr} (this FMU has 0 .. {len(self._variables) - 1})")
+            if type(variable) is not kind:
+                wanted = _TYPE_NAME[type(variable)]
+                raise FmiStatus(f"{function}: value reference {vr} is {variable.name!r}, a {wanted} variable; "
+                                f"use fmi2{'Set' if setting else 'Get'}{wanted}")
+            if setting and variable.causality == Fmi2Causality.output:
+                raise FmiStatus(f"{function}: {variable.name!r} is an output; outputs cannot be set")
+        raise FmiStatus(f"{function}: bad value references {list(vrs)!r}")
+
+    def _get(self, kind, function, vrs):
+        getters = self._getters[kind]
+        try:
+            return [getters[vr]() for vr in vrs]
+        except KeyError:
+            self._refuse_references(function, kind, vrs, setting=False)
+
+    def _set(self, kind, function, vrs, values, check):
+        setters = self._setters[kind]
+        try:
+            chosen = [setters[vr] for vr in vrs]
+        except KeyError:
+            self._refuse_references(function, kind, vrs, setting=True)
+        for vr, value in zip(vrs, values):                    # all checked before any is set
+            if not check(value):
+                name = self._variables[vr].name
+                raise FmiStatus(f"{function}: {name}: got {value!r} (allowed: {_ALLOWED[kind]})")
+        if self._sim is not None:
+            for vr in vrs:
+                if self._variables[vr].causality == Fmi2Causality.parameter:
+                    raise FmiStatus(f"{function}: {self._variables[vr].name}: a fixed parameter can be set only "
+                                    f"before fmi2ExitInitializationMode")
+        for setter, value in zip(chosen, values):
+            setter(value)
+
+    def get_real(self, vrs):
+        return self._get(Real, "fmi2GetReal", vrs)
+
+    def get_integer(self, vrs):
+        return self._get(Integer, "fmi2GetInteger", vrs)
+
+    def get_boolean(self, vrs):
+        return self._get(Boolean, "fmi2GetBoolean", vrs)
+
+    def get_string(self, vrs):
+        return self._get(String, "fmi2GetString", vrs)
+
+    def set_real(self, vrs, values):
+        self._set(Real, "fmi2SetReal", vrs, values, math.isfinite)
+
+    def set_integer(self, vrs, values):
+        self._set(Integer, "fmi2SetInteger", vrs, values, lambda v: True)
+
+    def set_boolean(self, vrs, values):
+        self._set(Boolean, "fmi2SetBoolean", vrs, [bool(v) for v in values], lambda v: True)
+
+    def set_string(self, vrs, values):
+        self._set(String, "fmi2SetString", vrs, values, lambda v: isinstance(v, str))
+
+    # ---- the simulator
+    def _give_inputs(self):
+        """Hand the inputs to the simulator (after a change only: see the module docstring)."""
+        if self._vector_api:
+            self._sim.set_input_vector(list(self._inputs))     # a copy: the setters change the list in place
+        else:
+            self._sim.set_inputs(**dict(zip(self.input_names, self._inputs)))
+        self._inputs_changed = False
+
+    def _read_outputs(self, level: int = 2):
+        """Compute the outputs of the current state up to validity ``level`` (1: all but the deferred)."""
+        sim = self._sim
+        if sim is None:                       # before initialisation: the start values
+            return
+        try:
+            if not self._vector_api:
+                values = sim.outputs()
+                outputs = [float(values[name]) for name in self.output_names]
+            elif not self._deferred_index:
+                outputs = sim.output_vector().tolist()
+            elif self._outputs_valid == 1:    # only the deferred ones are missing
+                outputs = list(self._outputs)
+                for i, value in zip(self._deferred_index, sim.deferred_output_vector()):
+                    outputs[i] = float(value)
+            else:
+                outputs = sim.output_vector(include_deferred=level == 2).tolist()
+        except (FlexfmuError, ArithmeticError) as exc:
+            raise FmiStatus(f"outputs: {exc}") from None
+        if not all(map(math.isfinite, outputs)):
+            wanted = range(len(outputs)) if level == 2 or not self._deferred_index else \
+                [i for i in range(len(outputs)) if i not in self._deferred_index]
+            bad = [self.output_names[i] for i in wanted if not math.isfinite(outputs[i])]
+            if bad:
+                raise FmiStatus(f"{', '.join(bad)}: not finite at t = {self._start_time + sim.time!r} s "
+                                f"(the inputs or parameters drive the model beyond its range)")
+        self._outputs = outputs
+        self._outputs_valid = 2 if (level == 2 or not self._deferred_index) else 1
+
+    def _config(self):
+        return self.config_class(**{f.name: self._values[f.name] for f in fields(self.config_class)})
+
+    def _build(self, values: dict):
+        """A simulator of the parameters ``values``, its inputs given, or FmiStatus naming what is wrong."""
+        for name, value in values.items():
+            if isinstance(value, float) and not math.isfinite(value):
+                raise FmiStatus(f"{name}: got {value!r} (allowed: a finite number)")
+        try:
+            sim = self.simulator_class(self.config_class(**values))
+            sim.set_inputs(**dict(zip(self.input_names, self._inputs)))     # checked, naming each input
+        except (FlexfmuError, ArithmeticError, RecursionError) as exc:
+            raise FmiStatus(str(exc) if isinstance(exc, FlexfmuError) else
+                            f"the parameters drive the model beyond its range ({type(exc).__name__}: {exc})") from None
+        return sim
+
+    def _log_messages(self):
+        """Log (status OK) and clear what the simulator chose and why (its ``messages`` list, if any)."""
+        messages = getattr(self._sim, "messages", None)
+        while messages:
+            self.messages.append((OK, "logAll", messages.pop(0)))
+
+    # ---- FMI calls (the binary has checked the call sequence and the arguments' finiteness)
+    def setup_experiment(self, start_time, stop_time, tolerance):
+        self._start_time = float(start_time)
+
+    def enter_initialization_mode(self):
+        pass
+
+    def exit_initialization_mode(self):
+        sim = self._build(dict(self._values))
+        self._sim = sim
+        self._vector_api = hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
+        self._inputs_changed = False
+        self._log_messages()
+        self._outputs_valid = 0
+        self._read_outputs()             # every output once: a problem shows here rather than at a later read
+
+    def do_step(self, current_time, step_size):
+        sim = self._sim
+        now = self._start_time + sim.time
+        if abs(current_time - now) > TIME_RTOL * max(1.0, abs(now)):
+            raise FmiStatus(f"currentCommunicationPoint: got {current_time!r} s, expected the FMU's time "
+                            f"{now!r} s (roll back with fmi2SetFMUstate to step from another time)")
+        try:
+            if self._inputs_changed:
+                self._give_inputs()
+            self._outputs_valid = 0           # from here on the outputs are those of another state
+            sim.step(step_size)
+        except StepRejected as exc:
+            raise FmiStatus(str(exc), DISCARD) from None
+        except (FlexfmuError, ArithmeticError) as exc:
+            raise FmiStatus(str(exc) if isinstance(exc, FlexfmuError) else
+                            f"the step overflowed ({type(exc).__name__}: {exc})") from None
+        finally:
+            if getattr(sim, "messages", None):
+                self._log_messages()
+
+    def last_successful_time(self):
+        return self._start_time + (self._sim.time if self._sim is not None else 0.0)
+
+    def terminate(self):
+        pass
+
+    def reset(self):
+        self._clear()
+
+    def free(self):
+        self._sim = None
+
+    # ---- FMU state: everything an instance holds, so that a restore needs no other call
+    def get_fmu_state(self):
+        if self._sim is not None and self._outputs_valid < 2:
+            self._read_outputs()
+        return {"format": STATE_FORMAT, "model": type(self.slave).__name__, "values": dict(self._values),
+                "inputs": list(self._inputs), "outputs": list(self._outputs), "start_time": self._start_time,
+                "sim": None if self._sim is None else self._sim.get_state()}
+
+    def set_fmu_state(self, state):
+        if self._sim is not None and state["sim"] is not None and state["values"] == self._values:
+            sim = self._sim
+        elif state["sim"] is not None:       # another configuration, or not initialised: build its simulator
+            sim = self._build(dict(state["values"]))
+        else:
+            sim = None
+        if sim is not None:
+            try:
+                sim.set_state(state["sim"])
+            except (FlexfmuError, KeyError, TypeError, ValueError) as exc:
+                raise FmiStatus(f"fmi2SetFMUstate: the state does not fit this FMU ({type(exc).__name__}: {exc})") \
+                    from None
+        self._values = dict(state["values"])
+        self._inputs[:] = state["inputs"]          # in place: the input setters hold this list
+        self._outputs = list(state["outputs"])
+        self._start_time = state["start_time"]
+        self._sim = sim
+        self._vector_api = sim is not None and hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
+        self._outputs_valid = 2 if sim is not None else 0
+        self._inputs_changed = True                # the simulator's inputs are those of the state's last step
+
+    def serialize_fmu_state(self, state) -> bytes:
+        return json.dumps(state, allow_nan=False).encode()
+
+    def deserialize_fmu_state(self, data: bytes):
+        try:
+            state = json.loads(data.decode("utf-8"))
+        except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+            raise FmiStatus(f"fmi2DeSerializeFMUstate: the bytes are not a state of this FMU (truncated or damaged: "
+                            f"{type(exc).__name__})") from None
+        self._check_state(state)
+        return state
+
+    def _check_state(self, state):
+        """The structure of a deserialised state, before anything of it is used."""
+        def bad(why):
+            raise FmiStatus(f"fmi2DeSerializeFMUstate: the bytes are not a state of this FMU ({why})")
+        if not isinstance(state, dict) or state.get("format") != STATE_FORMAT:
+            bad("unknown format")
+        if state.get("model") != type(self.slave).__name__:
+            bad(f"a state of {state.get('model')!r}")
+        values = state.get("values")
+        if not isinstance(values, dict) or set(values) != set(self._defaults):
+            bad("its parameters are not this FMU's")
+        for name, default in self._defaults.items():
+            if type(values[name]) is not type(default) and not (isinstance(default, float)
+                                                                and type(values[name]) is int):
+                bad(f"parameter {name} has the wrong type")
+            values[name] = type(default)(values[name])
+        for key, size in (("inputs", len(self.input_names)), ("outputs", len(self.output_names))):
+            column = state.get(key)
+            if not (isinstance(column, list) and len(column) == size
+                    and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                            for v in column)):
+                bad(f"{key} are not {size} finite numbers")
+        if not isinstance(state.get("start_time"), (int, float)) or not math.isfinite(state["start_time"]):
+            bad("start_time")
+        if state.get("sim") is not None and not isinstance(state["sim"], dict):
+            bad("simulator state")
+
+
+_ALLOWED = {Real: "a finite number", Integer: "an integer", Boolean: "a boolean", String: "a UTF-8 string"}
