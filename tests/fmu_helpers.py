@@ -83,7 +83,6 @@ class Instance:
         """Free the instance (fmi2FreeInstance is legal in every state) and delete the extraction."""
         if self.fmu is None:
             return
-        self.fmu.freeInstance()
-        self.fmu.freeLibrary()
+        self.fmu.freeInstance()           # fmpy unloads the library here too
         self.fmu = None
         shutil.rmtree(self.unzipped, ignore_errors=True)

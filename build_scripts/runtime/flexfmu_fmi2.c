@@ -33,7 +33,9 @@ typedef enum {
     StepComplete = 1 << 2,       /* after fmi2ExitInitializationMode, a successful fmi2DoStep */
     StepFailed = 1 << 3,         /* after fmi2DoStep returned fmi2Discard (the state is the step's start) */
     Terminated = 1 << 4,         /* after fmi2Terminate */
-    Error = 1 << 5,              /* after a failed fmi2ExitInitializationMode / fmi2DoStep / fmi2SetFMUstate */
+    Error = 1 << 5,              /* after fmi2Error from a call that moves the model: fmi2ExitInitializationMode,
+                                    fmi2DoStep, fmi2Reset, fmi2SetFMUstate.  A refused get/set of values,
+                                    set-up, logging or FMU-state call leaves the state as it was. */
 } State;
 
 #define ALL_STATES (Instantiated | InitializationMode | StepComplete | StepFailed | Terminated | Error)
@@ -698,11 +700,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
     fmi2Status refused;
     Instance *inst = enter(c, F_DoStep, &refused);
     if (!inst) return refused;
+    int status;
     if (!isfinite(currentCommunicationPoint))
-        return leave(inst, fail(inst, "fmi2DoStep", "currentCommunicationPoint is not finite (allowed: the FMU's time)"));
-    if (!(isfinite(communicationStepSize) && communicationStepSize > 0))
-        return leave(inst, fail(inst, "fmi2DoStep", "communicationStepSize must be finite and > 0 s"));
-    int status = inst->bridge->do_step(inst->slave, currentCommunicationPoint, communicationStepSize);
+        status = fail(inst, "fmi2DoStep", "currentCommunicationPoint is not finite (allowed: the FMU's time)");
+    else if (!(isfinite(communicationStepSize) && communicationStepSize > 0))
+        status = fail(inst, "fmi2DoStep", "communicationStepSize must be finite and > 0 s");
+    else
+        status = inst->bridge->do_step(inst->slave, currentCommunicationPoint, communicationStepSize);
     if (status == fmi2Discard) inst->state = StepFailed;
     else if (status >= fmi2Error) inst->state = Error;
     return leave(inst, status);

@@ -1,0 +1,269 @@
+"""FMUs loaded the way users load them: fmpy.simulate_fmu many times in one process (each call on a
+fresh extraction that fmpy deletes afterwards), several FMU types mixed, in a fresh interpreter and in
+one that has imported flexfmu already; two flexfmu builds in one process; a Python that lacks the
+FMU's packages; many instantiate/free cycles; processes that must always exit cleanly."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+from fmpy import simulate_fmu
+
+from flexfmu.fmi.loader import package_build_id
+
+SMALL_REFRAME = {"model": "beam:spatial_double_L", "n_flexible_modes": 4, "load_point_x": 0.14,
+                 "load_point_y": 0.15, "load_point_z": 0.16, "omega0_3": 1.0}
+#: (FMU, start values, outputs): small runs whose final outputs are compared
+RUNS = {
+    "ffr_damped": ("FFRBeam", {"damping_ratio": 0.02, "base_w_z": 0.0}, ["tip_u_z", "sensor_a_x", "reaction_F_z"]),
+    "ffr_xfx": ("FFRBeam", {"boundary": "XFX", "load_s": 0.3}, ["tip_u_z", "sensor_a_x", "reaction_F_z"]),
+    "reframe": ("ReframeBody", SMALL_REFRAME, ["omega_3", "com_vel_x", "out_acc_y"]),
+    "wave": ("WaveExcitation", {}, ["F_x", "F_z", "M_y"]),
+}
+SEQUENCES = [["ffr_damped", "ffr_xfx", "ffr_damped"], ["reframe", "ffr_damped"], ["wave", "reframe", "wave"]]
+
+RUNNER = r"""
+import json, sys
+from fmpy import simulate_fmu
+runs = json.loads(sys.argv[1])
+results = []
+for path, start, outputs in runs:
+    r = simulate_fmu(path, start_values=start, stop_time=0.02, step_size=1e-3, output_interval=1e-3, output=outputs)
+    results.append([float(r[name][-1]) for name in outputs])
+print(json.dumps(results))
+"""
+
+
+def _spec(fmus, key):
+    name, start, outputs = RUNS[key]
+    return [str(fmus[name]), start, outputs]
+
+
+def _run_fresh_process(specs, env=None, timeout=300):
+    out = subprocess.run([sys.executable, "-c", RUNNER, json.dumps(specs)], capture_output=True, text=True,
+                         timeout=timeout, env=env)
+    return out
+
+
+def _final_outputs_in_this_process(spec):
+    path, start, outputs = spec
+    r = simulate_fmu(path, start_values=start, stop_time=0.02, step_size=1e-3, output_interval=1e-3, output=outputs)
+    return [float(r[name][-1]) for name in outputs]
+
+
+@pytest.fixture(scope="module")
+def single_runs(fmus):
+    """Each run alone, each in its own fresh process: the reference for the sequences."""
+    results = {}
+    for key in RUNS:
+        out = _run_fresh_process([_spec(fmus, key)])
+        assert out.returncode == 0, out.stderr[-3000:]
+        results[key] = json.loads(out.stdout.splitlines()[-1])[0]
+    return results
+
+
+@pytest.mark.parametrize("sequence", SEQUENCES, ids=["-".join(s) for s in SEQUENCES])
+def test_sequence_in_a_fresh_process_equals_single_runs(fmus, single_runs, sequence):
+    out = _run_fresh_process([_spec(fmus, key) for key in sequence])
+    assert out.returncode == 0, out.stderr[-3000:]
+    results = json.loads(out.stdout.splitlines()[-1])
+    for key, values in zip(sequence, results):
+        assert values == single_runs[key], key            # bit-identical: nothing leaks between loads
+
+
+def test_sequence_in_a_process_that_imported_flexfmu(fmus, single_runs):
+    """pytest's own process has flexfmu imported from the source tree: the FMUs share it (same build)."""
+    for key in ["ffr_damped", "reframe", "ffr_xfx", "wave", "ffr_damped"]:
+        assert _final_outputs_in_this_process(_spec(fmus, key)) == single_runs[key], key
+
+
+def _other_build(fmu: Path, target: Path) -> Path:
+    """A copy of ``fmu`` whose bundled flexfmu differs (as another flexfmu build would)."""
+    with zipfile.ZipFile(fmu) as zf:
+        members = {info.filename: zf.read(info) for info in zf.infolist()}
+    members["resources/flexfmu/__init__.py"] += b"\n# another build\n"
+    unpacked = target.with_suffix(".d")
+    for name, data in members.items():
+        (unpacked / name).parent.mkdir(parents=True, exist_ok=True)
+        (unpacked / name).write_bytes(data)
+    info = json.loads(members["resources/flexfmu_build.json"])
+    info["build_id"] = package_build_id(str(unpacked / "resources" / "flexfmu"))
+    members["resources/flexfmu_build.json"] = json.dumps(info).encode()
+    with zipfile.ZipFile(target, "w") as zf:
+        for name, data in members.items():
+            zf.writestr(name, data)
+    return target
+
+
+def test_two_builds_in_one_process_second_fails_naming_both(fmus, tmp_path):
+    other = _other_build(fmus["FFRBeam"], tmp_path / "FFRBeam_other.fmu")
+    script = r"""
+import sys
+from fmpy import simulate_fmu
+messages = []
+def logger(component, instance, status, category, message):
+    messages.append((status, message.decode()))
+simulate_fmu(sys.argv[1], stop_time=1e-3, output_interval=1e-3)
+try:
+    simulate_fmu(sys.argv[2], stop_time=1e-3, output_interval=1e-3, logger=logger)
+except Exception as exc:
+    print("FAILED:", exc)
+for status, message in messages:
+    print("LOG", status, message)
+"""
+    env = {**os.environ, "FLEXFMU_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run([sys.executable, "-c", script, str(fmus["FFRBeam"]), str(other)], capture_output=True,
+                         text=True, timeout=300, env=env)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert "FAILED:" in out.stdout and "instantiate" in out.stdout.lower(), out.stdout
+    errors = [line for line in out.stdout.splitlines() if line.startswith("LOG 3 ")]
+    assert len(errors) == 1, out.stdout                    # one message per error
+    first = json.loads(zipfile.ZipFile(fmus["FFRBeam"]).read("resources/flexfmu_build.json"))["build_id"]
+    second = json.loads(zipfile.ZipFile(other).read("resources/flexfmu_build.json"))["build_id"]
+    assert first in errors[0] and second in errors[0], errors[0]
+
+
+def test_extraction_deleted_while_loaded_and_runtime_copy_reused(fmus, tmp_path):
+    """A runtime copy survives the extraction; a second process reuses it instead of copying again."""
+    env = {**os.environ, "FLEXFMU_CACHE_DIR": str(tmp_path / "cache")}
+    for _ in range(2):
+        out = _run_fresh_process([_spec(fmus, "ffr_damped"), _spec(fmus, "ffr_xfx")], env=env)
+        assert out.returncode == 0, out.stderr[-3000:]
+    copies = list((tmp_path / "cache" / "fmu-runtime").iterdir())
+    assert len(copies) == 1 and (copies[0] / "complete").is_file(), copies
+
+
+@pytest.fixture(scope="module")
+def c_host(tmp_path_factory):
+    """examples/c_host/fmi2_host.c compiled; run(unzipped FMU, extra arguments, env) takes one step."""
+    import fmpy
+    from fmpy import read_model_description
+    exe = tmp_path_factory.mktemp("c_host") / "fmi2_host"
+    headers = Path(fmpy.__file__).parent / "c-code"
+    root = Path(__file__).resolve().parents[1]
+    subprocess.run(["gcc", "-std=c99", "-D_GNU_SOURCE", "-O2", f"-I{headers}", "-o", str(exe),
+                    str(root / "examples" / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
+
+    class Host:
+        @staticmethod
+        def run(unzipped, extra, env):
+            md = read_model_description(str(unzipped))
+            return subprocess.run([str(exe), "1e-3", "1", "--fmu", str(unzipped), md.coSimulation.modelIdentifier,
+                                   md.guid, *extra], capture_output=True, text=True, timeout=120, env=env)
+    return Host
+
+
+def test_missing_packages_are_named_with_the_pip_command(fmus, tmp_path, c_host):
+    """A Python without the FMU's packages: one Error naming what is missing and how to install it."""
+    unzipped = tmp_path / "FFRBeam"
+    with zipfile.ZipFile(fmus["FFRBeam"]) as zf:
+        zf.extractall(unzipped)
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path), "FLEXFMU_SITE_PACKAGES": str(tmp_path / "empty")}
+    out = c_host.run(unzipped, [], env=env)
+    assert out.returncode != 0
+    text = out.stdout + out.stderr
+    assert "missing packages" in text and "pythonfmu==" in text, text
+    assert "pip install -r" in text and "requirements.txt" in text, text
+    assert "Segmentation" not in text and "core dumped" not in text
+
+
+MEMORY = r"""
+import ctypes, sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+path, cycles = sys.argv[1], int(sys.argv[2])
+md = read_model_description(path)
+unzipped = extract(path)
+def rss_kib():
+    with open("/proc/self/status") as f:
+        return next(int(l.split()[1]) for l in f if l.startswith("VmRSS"))
+def new():   # fmpy loads the library per FMU2Slave and unloads it in freeInstance
+    return FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                     instanceName="m")
+fmu = new(); fmu.instantiate(); fmu.freeInstance()
+samples = []
+for k in range(cycles):
+    fmu = new()
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode(); fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    fmu.freeInstance()
+    if k in (cycles // 10, cycles - 1):
+        samples.append(rss_kib())
+print(samples[0], samples[1])
+"""
+
+
+def test_instantiate_free_cycles_keep_memory_flat(fmus):
+    cycles = 1000
+    out = subprocess.run([sys.executable, "-c", MEMORY, str(fmus["Hydrostatics"]), str(cycles)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-3000:]
+    early, late = map(int, out.stdout.split())
+    # pythonfmu's binary leaked ~8 KiB per cycle (7 MiB over these 900 cycles)
+    assert late - early < 900, f"RSS grew {late - early} KiB over {cycles - cycles // 10} cycles"
+
+
+STRESS = r"""
+import math, sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+paths, refuse, leave_open = sys.argv[1:-2], sys.argv[-2] == "1", sys.argv[-1] == "1"
+kept = []
+for path in paths:
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    real_inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="s")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    for k in range(5):
+        if refuse:
+            for bad in (float("nan"), float("inf")):
+                try:
+                    fmu.setReal([vr[real_inputs[0]]], [bad])
+                except Exception:
+                    pass
+            try:
+                fmu.exitInitializationMode()          # illegal: already initialised
+            except Exception:
+                pass
+        fmu.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+    if leave_open:
+        kept.append(fmu)                              # a host that exits without freeing
+    else:
+        fmu.terminate()
+        fmu.freeInstance()
+print("done")
+"""
+
+
+def test_processes_exit_cleanly_under_load(fmus):
+    """Many short host processes, with and without refused calls and unfreed instances, while another
+    process loads the CPU: every one exits 0 with no heap-corruption or crash message."""
+    paths = [str(fmus[n]) for n in ("FFRBeam", "Hydrostatics", "WaveExcitation", "PTO")]
+    burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        failures = []
+        for run in range(12):
+            refuse, leave_open = run % 2, (run // 2) % 2
+            out = subprocess.run([sys.executable, "-c", STRESS, *paths, str(refuse), str(leave_open)],
+                                 capture_output=True, text=True, timeout=300)
+            text = out.stderr
+            if out.returncode != 0 or "done" not in out.stdout or any(
+                    bad in text for bad in ("corrupted", "Segmentation", "double free", "Fatal Python", "Abort")):
+                failures.append((run, out.returncode, text[-2000:]))
+    finally:
+        burner.kill()
+        burner.wait()
+    assert not failures, failures
