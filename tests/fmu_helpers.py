@@ -81,8 +81,7 @@ class Instance:
 
     def free(self):
         """Free the instance (fmi2FreeInstance is legal in every state) and delete the extraction."""
-        if self.fmu is None:
-            return
-        self.fmu.freeInstance()           # fmpy unloads the library here too
-        self.fmu = None
+        if self.fmu is not None:
+            self.fmu.freeInstance()       # fmpy unloads the library here too
+            self.fmu = None
         shutil.rmtree(self.unzipped, ignore_errors=True)
