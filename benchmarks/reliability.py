@@ -1,0 +1,259 @@
+"""Reliability report of the built FMUs -> docs/reliability.md.
+
+    python benchmarks/reliability.py [--dist dist] [--out docs/reliability.md] [--cycles 2000] [--runs 20]
+
+For every FMU in ``--dist``: a battery of bad values and calls through fmpy's FMU2Slave, each on a fresh
+extraction (unknown and mistyped value references, NaN/inf values, outputs and fixed parameters set,
+calls out of sequence, damaged serialised states), tallied by returned status, with a check that
+nothing crashed, hung (every call is timed) or returned a non-finite value with fmi2OK; instantiate/free
+cycles with the process's resident memory; host processes run to exit under CPU load, with and without
+refused calls and unfreed instances, counted by exit code.  Each part runs in its own process.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+BATTERY = r"""
+import json, math, sys, time, shutil
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+path = sys.argv[1]
+md = read_model_description(path)
+variables = {v.name: v for v in md.modelVariables}
+by_kind = lambda kind, causality=None: [v for v in md.modelVariables if v.type == kind
+                                        and (causality is None or v.causality == causality)]
+outputs = by_kind("Real", "output")
+inputs = by_kind("Real", "input")
+real_parameters = by_kind("Real", "parameter")
+results, slowest, nonfinite = [], 0.0, 0
+
+def fresh(initialised=True):
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="r")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    if initialised:
+        fmu.exitInitializationMode()
+    return fmu
+
+def attempt(label, action, initialised=True):
+    global slowest, nonfinite
+    fmu = fresh(initialised)
+    tic = time.perf_counter()
+    try:
+        value = action(fmu)
+        status = 0
+        if isinstance(value, list) and any(isinstance(x, float) and not math.isfinite(x) for x in value):
+            nonfinite += 1
+    except Exception as exc:
+        status = getattr(exc, "status", -1)
+    slowest = max(slowest, time.perf_counter() - tic)
+    results.append((label, status))
+    fmu.freeInstance()
+
+n_vr = len(md.modelVariables)
+out_vr, in_vr = outputs[0].valueReference, inputs[0].valueReference if inputs else None
+for bad in (n_vr, n_vr + 7, 2**31 - 1):
+    attempt("getReal unknown vr", lambda f: f.getReal([bad]))
+    attempt("setReal unknown vr", lambda f: f.setReal([bad], [0.0]))
+for kind in ("Integer", "Boolean", "String"):
+    for v in by_kind(kind)[:2]:
+        attempt(f"getReal of a {kind}", lambda f: f.getReal([v.valueReference]))
+        attempt(f"setReal of a {kind}", lambda f: f.setReal([v.valueReference], [1.0]), initialised=False)
+for v in outputs[:5]:
+    attempt("setReal on an output", lambda f: f.setReal([v.valueReference], [1.0]))
+for v in real_parameters[:5]:
+    attempt("setReal on a fixed parameter after init", lambda f: f.setReal([v.valueReference], [1.0]))
+for bad in (float("nan"), float("inf"), -float("inf")):
+    for v in inputs[:6]:
+        attempt("non-finite input", lambda f: f.setReal([v.valueReference], [bad]))
+    for v in real_parameters[:6]:
+        attempt("non-finite parameter", lambda f: f.setReal([v.valueReference], [bad]), initialised=False)
+    attempt("non-finite time", lambda f: f.doStep(currentCommunicationPoint=bad, communicationStepSize=1e-3))
+    attempt("non-finite step", lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=bad))
+for t in (0.5, -1.0):
+    attempt("wrong communication point", lambda f: f.doStep(currentCommunicationPoint=t, communicationStepSize=1e-3))
+for h in (0.0, -1e-3):
+    attempt("step <= 0", lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=h))
+attempt("second exitInitializationMode", lambda f: f.exitInitializationMode())
+attempt("setupExperiment after init", lambda f: f.setupExperiment(startTime=0.0))
+attempt("doStep before exitInitializationMode",
+        lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3), initialised=False)
+def after_terminate(f):
+    f.terminate()
+    f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+attempt("doStep after terminate", after_terminate)
+def damaged(cut):
+    def run(f):
+        data = f.serializeFMUstate(f.getFMUstate())
+        f.deSerializeFMUstate(cut(data))
+    return run
+attempt("truncated state", damaged(lambda b: b[: len(b) // 2]))
+attempt("garbage state", damaged(lambda b: bytes(len(b))))
+attempt("state with garbage payload", damaged(lambda b: b[:60] + b"{" * 100000))
+attempt("cancelStep", lambda f: f.cancelStep())
+attempt("getDirectionalDerivative", lambda f: f.getDirectionalDerivative([out_vr], [in_vr or out_vr], [1.0]))
+print(json.dumps({"results": results, "slowest_call_s": slowest, "nonfinite_ok": nonfinite}))
+"""
+
+CYCLES = r"""
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+path, cycles = sys.argv[1], int(sys.argv[2])
+md = read_model_description(path)
+unzipped = extract(path)
+def rss_kib():
+    with open("/proc/self/status") as f:
+        return next(int(l.split()[1]) for l in f if l.startswith("VmRSS"))
+samples = {}
+for k in range(cycles + 1):
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="c")
+    fmu.instantiate(); fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode(); fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    fmu.freeInstance()
+    if k in (cycles // 2, cycles):
+        samples[k] = rss_kib()
+print(samples[cycles // 2], samples[cycles])
+"""
+
+EXIT = r"""
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+paths, refuse, leave_open = sys.argv[1:-2], sys.argv[-2] == "1", sys.argv[-1] == "1"
+kept = []
+for path in paths:
+    md = read_model_description(path)
+    first_real = next(v.valueReference for v in md.modelVariables if v.type == "Real" and v.causality != "output")
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="x")
+    fmu.instantiate(); fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode(); fmu.exitInitializationMode()
+    for k in range(5):
+        if refuse:
+            for call in (lambda: fmu.setReal([first_real], [float("nan")]), fmu.exitInitializationMode):
+                try:
+                    call()
+                except Exception:
+                    pass
+        fmu.doStep(currentCommunicationPoint=k * 1e-3, communicationStepSize=1e-3)
+    if leave_open:
+        kept.append(fmu)
+    else:
+        fmu.terminate(); fmu.freeInstance()
+print("done")
+"""
+
+STATUS = {0: "OK", 1: "Warning", 2: "Discard", 3: "Error", 4: "Fatal", -1: "crash/other"}
+
+
+def python(code: str, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def battery(fmu: Path) -> dict:
+    out = python(BATTERY, str(fmu))
+    if out.returncode != 0:
+        return {"crashed": out.returncode, "stderr": out.stderr[-400:]}
+    data = json.loads(out.stdout.splitlines()[-1])
+    data["by_status"] = Counter(STATUS.get(status, str(status)) for _, status in data["results"])
+    data["ok_labels"] = sorted({label for label, status in data["results"] if status == 0})
+    return data
+
+
+def cycles(fmu: Path, n: int) -> tuple[int, int]:
+    out = python(CYCLES, str(fmu), str(n))
+    if out.returncode != 0:
+        raise SystemExit(f"instantiate/free cycles of {fmu.name} crashed: {out.returncode} {out.stderr[-400:]}")
+    early, late = map(int, out.stdout.split())
+    return early, late
+
+
+def exit_stress(fmus: list[Path], runs: int) -> Counter:
+    burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])     # CPU load beside the runs
+    codes = Counter()
+    try:
+        for run in range(runs):
+            out = python(EXIT, *map(str, fmus), str(run % 2), str((run // 2) % 2))
+            clean = out.returncode == 0 and "done" in out.stdout and not any(
+                bad in out.stderr for bad in ("corrupted", "Segmentation", "double free", "Fatal Python"))
+            codes["exit 0, clean" if clean else f"exit {out.returncode}: {out.stderr[-200:]}"] += 1
+    finally:
+        burner.kill()
+        burner.wait()
+    return codes
+
+
+def report(dist: Path, n_cycles: int, runs: int) -> str:
+    fmus = sorted(dist.glob("*.fmu"))
+    lines = ["# Reliability report", "",
+             f"Generated by `benchmarks/reliability.py` on {time.strftime('%Y-%m-%d')} ({platform.platform()}, "
+             f"Python {platform.python_version()}), from the FMUs in `{dist.name}/`. Every bad value and call runs "
+             "on a fresh extraction, through fmpy's FMU2Slave, in a process of its own per FMU.", "",
+             "## Bad values and calls", "",
+             "| FMU | tried | Error | Discard | OK | Fatal / crash | non-finite with OK | slowest call (s) |",
+             "|---|---|---|---|---|---|---|---|"]
+    accepted = []
+    for fmu in fmus:
+        b = battery(fmu)
+        if "crashed" in b:
+            lines.append(f"| {fmu.stem} | — | — | — | — | crashed ({b['crashed']}) | — | — |")
+            continue
+        s = b["by_status"]
+        lines.append(f"| {fmu.stem} | {len(b['results'])} | {s['Error']} | {s['Discard']} | {s['OK']} | "
+                     f"{s['Fatal'] + s['crash/other']} | {b['nonfinite_ok']} | {b['slowest_call_s']:.2f} |")
+        accepted += [f"{fmu.stem}: {label}" for label in b["ok_labels"]]
+    lines += ["", "Calls answered OK above: " + ("; ".join(accepted) if accepted else "none") + ".", "",
+              f"## Instantiate/free cycles ({n_cycles} per FMU)", "",
+              "Each cycle loads the library, instantiates, initialises, takes one step and frees (fmpy unloads "
+              "the library); resident memory after half of the cycles (Python's own caches and arenas fill during "
+              "the first few hundred) and after all of them.", "",
+              "| FMU | RSS at half (KiB) | RSS at end (KiB) | growth per cycle (B) |", "|---|---|---|---|"]
+    for fmu in fmus:
+        early, late = cycles(fmu, n_cycles)
+        lines.append(f"| {fmu.stem} | {early} | {late} | {1024 * (late - early) / (0.5 * n_cycles):.0f} |")
+    codes = exit_stress([f for f in fmus if f.stem in ("FFRBeam", "Hydrostatics", "WaveExcitation", "PTO")], runs)
+    lines += ["", f"## Exit-code stress ({runs} host processes under CPU load)", "",
+              "Each process loads FFRBeam, Hydrostatics, WaveExcitation and PTO, steps each, and exits; half of "
+              "them make refused calls (a NaN input or parameter, a second exitInitializationMode) every step, half leave their "
+              "instances unfreed.", ""]
+    lines += [f"- {label}: {count}" for label, count in codes.items()]
+    lines += ["", "## Hosts", "",
+              "fmpy (this report and the test suite), libcosim (`tests/test_fmu_hosts.py`), the ecos CLI with "
+              "proxyfmu (`tests/test_fmu_ecos.py`) and a C host in a bare environment (`tests/test_fmu_c_host.py`, "
+              "`tests/test_fmu_loading.py`) run in `python3 tasks.py test`; see docs/fmu.md, 'Hosts'.", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dist", type=Path, default=ROOT / "dist")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "reliability.md")
+    parser.add_argument("--cycles", type=int, default=2000)
+    parser.add_argument("--runs", type=int, default=20)
+    args = parser.parse_args(argv)
+    if not list(args.dist.glob("*.fmu")):
+        print(f"no FMUs in {args.dist}: build them first (python3 tasks.py main)", file=sys.stderr)
+        return 2
+    text = report(args.dist, args.cycles, args.runs)
+    args.out.write_text(text, encoding="utf-8")
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
