@@ -1,57 +1,139 @@
 """A minimal C host (examples/c_host/fmi2_host.c: dlopen + fmi2 calls) runs the FMUs the way a
-non-Python FMI tool does — libpython preloaded, PYTHONPATH to numpy/scipy — and matches fmpy."""
-import os
-import subprocess
-import sysconfig
-import zipfile
-from pathlib import Path
+non-Python FMI tool does and must match fmpy to 1e-12.
 
-import fmpy
+The primary case runs the host in a clean environment (PATH=/usr/bin:/bin and HOME, nothing else):
+what a user's tool has.  The other cases run in ``host_tools.host_environment`` (the same clean
+environment unless switched there, for FMUs that need LD_PRELOAD, PYTHONHOME and PYTHONPATH).
+A failing host shows its exit status and stderr (with the FMU's log messages) in the assertion
+message.  The host returns from main after dlclose, so a crash while unloading or at exit fails the
+test; the results are compared first so that such a failure also says whether the numbers were right.
+"""
 import numpy as np
-from fmpy import read_model_description
+import pytest
 
-from fmu_helpers import ROOT, Instance
+from fmu_helpers import Instance
+from host_tools import (clean_environment, compile_c_host, describe, extract_fmu, host_environment, run_host,
+                        value_references)
+
+H, N_STEPS = 1e-3, 20
+
+# name: (start values, held inputs, outputs) as set through the C host
+CASES = {
+    "FFRBeam": ({"boundary": ("string", "XFX"), "damping_ratio": ("real", 0.02), "load_s": ("real", 0.3)},
+                {"F_z": 1.5, "base_a_x": 0.5},
+                ["sensor_u_z", "sensor_v_z", "sensor_a_x", "reaction_F_z", "reaction_M_y", "f_1"]),
+    "ReframeBody": ({"model": ("string", "beam:spatial_double_L"), "n_flexible_modes": ("int", 4),
+                     "omega0_3": ("real", 1.0)},
+                    {"F_x": 2.0, "M_z": 0.01},
+                    ["omega_1", "omega_3", "com_vel_x", "out_acc_y", "q_w"]),
+}
 
 
-def _compile(tmp_path: Path) -> Path:
-    exe = tmp_path / "fmi2_host"
-    headers = Path(fmpy.__file__).parent / "c-code"
-    subprocess.run(["gcc", "-std=c99", "-D_GNU_SOURCE", "-O2", f"-I{headers}", "-o", str(exe),
-                    str(ROOT / "examples" / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
-    return exe
+@pytest.fixture(scope="module")
+def host(tmp_path_factory):
+    return compile_c_host(tmp_path_factory.mktemp("c_host"))
 
 
-def _host_environment() -> dict:
-    libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("LDLIBRARY")
-    assert libpython.exists(), f"no shared libpython at {libpython}: a non-Python host cannot run these FMUs"
-    site = sysconfig.get_paths()["purelib"]
-    return {**os.environ, "LD_PRELOAD": str(libpython), "PYTHONPATH": site}
+@pytest.fixture(scope="module")
+def home(tmp_path_factory):
+    """One HOME for the module's host runs: flexfmu's cache (compiled kernels) is filled once."""
+    return tmp_path_factory.mktemp("host_home")
 
 
-def test_c_host_matches_fmpy(fmus, tmp_path):
-    exe = _compile(tmp_path)
-    fmu = fmus["FFRBeam"]
-    unzipped = tmp_path / "FFRBeam"
-    with zipfile.ZipFile(fmu) as zf:
-        zf.extractall(unzipped)
+def fmu_arguments(fmu, unzipped, name):
+    from fmpy import read_model_description
+    start, inputs, outputs = CASES[name]
     md = read_model_description(str(fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    outputs = ["tip_u_z", "sensor_a_x", "reaction_M_y", "f_1"]
-    h, n, force = 1e-3, 20, 1.5
-    out = subprocess.run([str(exe), str(unzipped), "FFRBeam", md.guid, str(h), str(n), str(vr["F_z"]), str(force),
-                          *[str(vr[o]) for o in outputs]], capture_output=True, text=True, timeout=120,
-                         env=_host_environment())
-    assert out.returncode == 0, out.stderr
-    host = np.loadtxt(out.stdout.splitlines(), delimiter=",")
-    assert host.shape == (n, 1 + len(outputs))
+    vr = value_references(fmu)
+    args = ["--fmu", unzipped, md.coSimulation.modelIdentifier, md.guid]
+    for key, (kind, value) in start.items():
+        args += ["--set", kind, vr[key], repr(value) if kind == "real" else value]
+    for key, value in inputs.items():
+        args += ["--input", vr[key], repr(value)]
+    for key in outputs:
+        args += ["--output", vr[key]]
+    return args
 
-    inst = Instance(fmu, "fmpy").initialize()
-    ours = []
-    for k in range(n):
-        inst.set(F_z=force)
-        inst.fmu.doStep(currentCommunicationPoint=k * h, communicationStepSize=h)
-        ours.append(inst.get(*outputs))
+
+def fmpy_reference(fmu, name) -> np.ndarray:
+    """(N_STEPS, 1 + outputs): time, outputs after each step, the C host's calls through fmpy."""
+    start, inputs, outputs = CASES[name]
+    inst = Instance(fmu, "fmpy", **{k: v for k, (_, v) in start.items()}).initialize()
+    rows = []
+    for k in range(N_STEPS):
+        inst.set(**inputs)
+        inst.fmu.doStep(currentCommunicationPoint=k * H, communicationStepSize=H)
+        rows.append([(k + 1) * H, *inst.get(*outputs)])
     inst.free()
-    ours = np.array(ours)
-    scale = np.abs(ours).max(axis=0)
-    assert np.max(np.abs(host[:, 1:] - ours) / scale) <= 1e-12
+    return np.array(rows)
+
+
+def host_rows(proc, env, run: int, index: int, n_columns: int) -> np.ndarray:
+    """The host's CSV lines of one run and FMU: (time, outputs...)."""
+    try:
+        rows = [list(map(float, line.split(","))) for line in proc.stdout.splitlines() if line.strip()]
+    except ValueError as exc:   # e.g. a line cut by a crash
+        pytest.fail(f"unreadable host output ({exc})" + describe(proc, env))
+    mine = [r[2:] for r in rows if int(r[0]) == run and int(r[1]) == index]
+    return np.array(mine).reshape(-1, n_columns)
+
+
+def assert_matches(proc, env, reference, run=0, index=0):
+    got = host_rows(proc, env, run, index, reference.shape[1])
+    assert got.shape == reference.shape, f"run {run}, FMU {index}: {got.shape} rows x columns" + describe(proc, env)
+    assert np.array_equal(got[:, 0], reference[:, 0])
+    scale = np.abs(reference[:, 1:]).max(axis=0)
+    assert np.all(scale > 0)
+    worst = np.max(np.abs(got[:, 1:] - reference[:, 1:]) / scale)
+    assert worst <= 1e-12, f"run {run}, FMU {index}: relative difference {worst:.3g}" + describe(proc, env)
+
+
+def run_c_host(host, env, cwd, fmus, *options, timeout=120):
+    """fmus: [(fmu path, name)]; each extracted fresh into cwd."""
+    args = []
+    for i, (fmu, name) in enumerate(fmus):
+        unzipped = extract_fmu(fmu, cwd / f"{name}_{i}")
+        args += fmu_arguments(fmu, unzipped, name)
+    return run_host([host, *options, repr(H), N_STEPS, *args], env, cwd, timeout=timeout)
+
+
+def check_run(proc, env, references, runs=1):
+    """Results first (compared even if the process died at exit), then the exit status."""
+    if proc.returncode == 4 or not proc.stdout.strip():   # 4: an FMI call failed (the FMU's log is in stderr)
+        pytest.fail("the host failed" + describe(proc, env))
+    for run in range(runs):
+        for index, reference in enumerate(references):
+            assert_matches(proc, env, reference, run, index)
+    assert proc.returncode == 0, "the results match fmpy, but the host did not end normally" + describe(proc, env)
+
+
+def test_c_host_in_a_clean_environment_matches_fmpy(fmus, host, tmp_path):
+    """Nothing but PATH and HOME: the FMU must find libpython, its Python home and its packages."""
+    env = clean_environment(tmp_path)
+    proc = run_c_host(host, env, tmp_path, [(fmus["FFRBeam"], "FFRBeam")])
+    check_run(proc, env, [fmpy_reference(fmus["FFRBeam"], "FFRBeam")])
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_c_host_matches_fmpy(fmus, host, home, tmp_path, name):
+    env = host_environment(home)
+    proc = run_c_host(host, env, tmp_path, [(fmus[name], name)])
+    check_run(proc, env, [fmpy_reference(fmus[name], name)])
+
+
+@pytest.mark.parametrize("reload", [False, True], ids=["same-library", "dlclose-dlopen"])
+def test_c_host_runs_the_same_fmu_twice_in_sequence(fmus, host, home, tmp_path, reload):
+    """Instantiate, run, free; then a second instance in the same process (after dlclose/dlopen
+    of the FMU's library with --reload): both runs must give fmpy's numbers."""
+    env = host_environment(home)
+    proc = run_c_host(host, env, tmp_path, [(fmus["FFRBeam"], "FFRBeam")], "--runs", 2,
+                      *(["--reload"] if reload else []))
+    check_run(proc, env, [fmpy_reference(fmus["FFRBeam"], "FFRBeam")], runs=2)
+
+
+def test_c_host_loads_two_different_fmus(fmus, host, home, tmp_path):
+    """FFRBeam and ReframeBody loaded and stepped side by side in one process (one interpreter)."""
+    env = host_environment(home)
+    proc = run_c_host(host, env, tmp_path, [(fmus["FFRBeam"], "FFRBeam"), (fmus["ReframeBody"], "ReframeBody")])
+    check_run(proc, env, [fmpy_reference(fmus["FFRBeam"], "FFRBeam"),
+                          fmpy_reference(fmus["ReframeBody"], "ReframeBody")])

@@ -142,13 +142,9 @@ def test_extraction_deleted_while_loaded_and_runtime_copy_reused(fmus, tmp_path)
 @pytest.fixture(scope="module")
 def c_host(tmp_path_factory):
     """examples/c_host/fmi2_host.c compiled; run(unzipped FMU, extra arguments, env) takes one step."""
-    import fmpy
     from fmpy import read_model_description
-    exe = tmp_path_factory.mktemp("c_host") / "fmi2_host"
-    headers = Path(fmpy.__file__).parent / "c-code"
-    root = Path(__file__).resolve().parents[1]
-    subprocess.run(["gcc", "-std=c99", "-D_GNU_SOURCE", "-O2", f"-I{headers}", "-o", str(exe),
-                    str(root / "examples" / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
+    from host_tools import compile_c_host
+    exe = compile_c_host(tmp_path_factory.mktemp("c_host"))
 
     class Host:
         @staticmethod

@@ -1,87 +1,301 @@
 /* A minimal FMI 2.0 co-simulation host in C: what a non-Python FMI tool does with our FMUs.
  *
- *   fmi2_host UNZIPPED_FMU_DIR MODEL_IDENTIFIER GUID STEP N_STEPS [INPUT_VR VALUE] OUTPUT_VR...
+ *   fmi2_host [--runs N] [--reload] STEP N_STEPS FMU [FMU...]
+ *   FMU := --fmu UNZIPPED_DIR MODEL_IDENTIFIER GUID
+ *          [--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--output VR]...
  *
- * dlopen()s binaries/linux64/<id>.so, instantiates, initialises, holds one real input (optional,
- * "-" to skip), takes N_STEPS communication steps of STEP seconds and prints one CSV line per step:
- * time, then the requested real outputs.  Run it with libpython preloaded and PYTHONPATH pointing
- * at a site-packages with numpy, scipy (see docs/fmu.md).  It ends with _exit(): an embedded
- * interpreter that has loaded scipy may crash while finalising, after all results are written.
+ * Each --fmu is dlopen()ed from UNZIPPED_DIR/binaries/linux64/<id>.so (two --fmu may name two
+ * different FMUs, or the same one twice).  A run instantiates every FMU, sets the --set start
+ * values in initialization mode, holds the real --input values and takes N_STEPS communication
+ * steps of STEP seconds (the FMUs one after the other, not coupled), printing one CSV line per
+ * FMU and step:  run, fmu index, time, the --output values.  Then fmi2Terminate and
+ * fmi2FreeInstance for every instance.  --runs N does N runs in sequence, each with new instances;
+ * the libraries stay loaded between runs unless --reload (dlclose and dlopen again).
+ *
+ * Every fmi2 status is checked and the FMUs' log messages go to stderr.  The libraries are
+ * dlclose()d and main returns normally, so a crash while unloading or at process exit shows as a
+ * non-zero exit status.  Exit status: 0 all good, 2 usage, 3 loading or unloading failed, 4 an FMI
+ * call failed.  What the process environment must provide for our FMUs: docs/fmu.md.
  */
+#ifndef _GNU_SOURCE
+#define _GNU_SOURCE /* realpath */
+#endif
 #include <dlfcn.h>
+#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "fmi2Functions.h"
 
-static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
-                   fmi2String message, ...) {
-    (void)env;
-    fprintf(stderr, "[%s|%d|%s] %s\n", instance ? instance : "", (int)status, category ? category : "",
-            message ? message : "");
+#define MAX_FMUS 8
+
+enum { OK = 0, USAGE = 2, LOAD_FAILED = 3, CALL_FAILED = 4 };
+
+typedef struct {
+    char kind; /* 'r', 'i', 'b', 's' */
+    fmi2ValueReference vr;
+    const char *value;
+} StartValue;
+
+typedef struct {
+    const char *dir, *id, *guid;
+    char resources[PATH_MAX + 32];
+    StartValue *starts;
+    int n_starts;
+    fmi2ValueReference *in_vr;
+    fmi2Real *in_value;
+    int n_in;
+    fmi2ValueReference *out_vr;
+    fmi2Real *out;
+    int n_out;
+    void *lib;
+    fmi2Component c;
+    fmi2Status worst; /* of the current instance: after fmi2Error no fmi2Terminate, after fmi2Fatal no call */
+    fmi2InstantiateTYPE *fmi2Instantiate;
+    fmi2SetupExperimentTYPE *fmi2SetupExperiment;
+    fmi2EnterInitializationModeTYPE *fmi2EnterInitializationMode;
+    fmi2ExitInitializationModeTYPE *fmi2ExitInitializationMode;
+    fmi2SetRealTYPE *fmi2SetReal;
+    fmi2SetIntegerTYPE *fmi2SetInteger;
+    fmi2SetBooleanTYPE *fmi2SetBoolean;
+    fmi2SetStringTYPE *fmi2SetString;
+    fmi2GetRealTYPE *fmi2GetReal;
+    fmi2DoStepTYPE *fmi2DoStep;
+    fmi2TerminateTYPE *fmi2Terminate;
+    fmi2FreeInstanceTYPE *fmi2FreeInstance;
+} Fmu;
+
+static const char *status_name(fmi2Status s) {
+    switch (s) {
+        case fmi2OK: return "OK";
+        case fmi2Warning: return "Warning";
+        case fmi2Discard: return "Discard";
+        case fmi2Error: return "Error";
+        case fmi2Fatal: return "Fatal";
+        case fmi2Pending: return "Pending";
+    }
+    return "?";
 }
 
-#define LOAD(name)                                                                      \
-    name##TYPE *name = (name##TYPE *)dlsym(lib, #name);                                 \
-    if (!name) { fprintf(stderr, "missing symbol %s\n", #name); return 3; }
+/* The FMI logger: the message is a printf format for the variadic arguments (FMI 2.0, 2.1.5). */
+static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
+                   fmi2String message, ...) {
+    char text[4096] = "";
+    va_list args;
+    (void)env;
+    if (message) {
+        va_start(args, message);
+        vsnprintf(text, sizeof text, message, args);
+        va_end(args);
+    }
+    fprintf(stderr, "[%s|%s|%s] %s\n", instance ? instance : "", status_name(status), category ? category : "",
+            text);
+    fflush(stderr);
+}
 
-#define CHECK(call)                                                                     \
-    do { fmi2Status s_ = (call); if (s_ > fmi2Warning) {                                \
-        fprintf(stderr, "%s failed with status %d\n", #call, (int)s_); fflush(stdout); _exit(4); } } while (0)
+/* A failed call is reported with the FMU and the call; the worst status decides what may follow. */
+static int check(Fmu *f, fmi2Status s, const char *call) {
+    if (s > f->worst) f->worst = s;
+    if (s <= fmi2Warning) return 1;
+    fprintf(stderr, "%s: %s returned fmi2%s\n", f->id, call, status_name(s));
+    return 0;
+}
+#define CALL(f, name, ...) check((f), (f)->name((f)->c, __VA_ARGS__), #name)
+#define CALL0(f, name) check((f), (f)->name((f)->c), #name)
+
+static int load(Fmu *f) {
+    char path[PATH_MAX + 64];
+    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", f->dir, f->id);
+    f->lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!f->lib) {
+        fprintf(stderr, "dlopen: %s\n", dlerror());
+        return 0;
+    }
+#define SYMBOL(name)                                                                                  \
+    *(void **)(&f->name) = dlsym(f->lib, #name);                                                      \
+    if (!f->name) {                                                                                   \
+        fprintf(stderr, "%s: missing symbol %s\n", path, #name);                                     \
+        return 0;                                                                                     \
+    }
+    SYMBOL(fmi2Instantiate) SYMBOL(fmi2SetupExperiment) SYMBOL(fmi2EnterInitializationMode)
+    SYMBOL(fmi2ExitInitializationMode) SYMBOL(fmi2SetReal) SYMBOL(fmi2SetInteger) SYMBOL(fmi2SetBoolean)
+    SYMBOL(fmi2SetString) SYMBOL(fmi2GetReal) SYMBOL(fmi2DoStep) SYMBOL(fmi2Terminate) SYMBOL(fmi2FreeInstance)
+#undef SYMBOL
+    return 1;
+}
+
+static int unload(Fmu *f) {
+    if (f->lib && dlclose(f->lib) != 0) {
+        fprintf(stderr, "dlclose %s: %s\n", f->id, dlerror());
+        f->lib = NULL;
+        return 0;
+    }
+    f->lib = NULL;
+    return 1;
+}
+
+static int set_start_values(Fmu *f) {
+    for (int i = 0; i < f->n_starts; i++) {
+        const StartValue *s = &f->starts[i];
+        int ok;
+        if (s->kind == 'r') {
+            fmi2Real v = strtod(s->value, NULL);
+            ok = CALL(f, fmi2SetReal, &s->vr, 1, &v);
+        } else if (s->kind == 'i') {
+            fmi2Integer v = atoi(s->value);
+            ok = CALL(f, fmi2SetInteger, &s->vr, 1, &v);
+        } else if (s->kind == 'b') {
+            fmi2Boolean v = strcmp(s->value, "true") == 0 || strcmp(s->value, "1") == 0;
+            ok = CALL(f, fmi2SetBoolean, &s->vr, 1, &v);
+        } else {
+            fmi2String v = s->value;
+            ok = CALL(f, fmi2SetString, &s->vr, 1, &v);
+        }
+        if (!ok) return 0;
+    }
+    return 1;
+}
+
+/* One run: instantiate all, initialise, step, terminate, free.  Returns an exit status. */
+static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps) {
+    fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
+    int status = OK, started = 0;
+    for (int i = 0; i < n_fmus; i++) {
+        Fmu *f = &fmus[i];
+        char name[64];
+        snprintf(name, sizeof name, "%s_%d_run%d", f->id, i, run);
+        f->worst = fmi2OK;
+        f->c = f->fmi2Instantiate(name, fmi2CoSimulation, f->guid, f->resources, &callbacks, fmi2False, fmi2True);
+        if (!f->c) {
+            fprintf(stderr, "%s: fmi2Instantiate returned NULL\n", f->id);
+            status = CALL_FAILED;
+            goto cleanup;
+        }
+        started = i + 1;
+        if (!CALL(f, fmi2SetupExperiment, fmi2False, 0.0, 0.0, fmi2False, 0.0) ||
+            !CALL0(f, fmi2EnterInitializationMode) || !set_start_values(f) || !CALL0(f, fmi2ExitInitializationMode)) {
+            status = CALL_FAILED;
+            goto cleanup;
+        }
+    }
+    for (int k = 0; k < n_steps; k++) {
+        double t = k * step;
+        for (int i = 0; i < n_fmus; i++) {
+            Fmu *f = &fmus[i];
+            if ((f->n_in && !CALL(f, fmi2SetReal, f->in_vr, (size_t)f->n_in, f->in_value)) ||
+                !CALL(f, fmi2DoStep, t, step, fmi2True)) {
+                status = CALL_FAILED;
+                goto cleanup;
+            }
+        }
+        for (int i = 0; i < n_fmus; i++) {
+            Fmu *f = &fmus[i];
+            if (f->n_out && !CALL(f, fmi2GetReal, f->out_vr, (size_t)f->n_out, f->out)) {
+                status = CALL_FAILED;
+                goto cleanup;
+            }
+            printf("%d,%d,%.17g", run, i, (k + 1) * step);
+            for (int j = 0; j < f->n_out; j++) printf(",%.17g", f->out[j]);
+            printf("\n");
+        }
+    }
+    for (int i = 0; i < n_fmus; i++)
+        if (!CALL0(&fmus[i], fmi2Terminate)) status = CALL_FAILED;
+cleanup:
+    fflush(stdout);
+    for (int i = 0; i < started; i++) {
+        Fmu *f = &fmus[i];
+        if (f->worst == fmi2Fatal) { /* FMI 2.0: no call after fmi2Fatal, not even fmi2FreeInstance */
+            fprintf(stderr, "%s: instance leaked after fmi2Fatal\n", f->id);
+        } else {
+            f->fmi2FreeInstance(f->c);
+        }
+        f->c = NULL;
+    }
+    return status;
+}
+
+static int usage(const char *program, const char *problem) {
+    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] STEP N_STEPS --fmu DIR ID GUID "
+                    "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--output VR]... [--fmu ...]\n",
+            problem, program);
+    return USAGE;
+}
 
 int main(int argc, char **argv) {
-    if (argc < 8) {
-        fprintf(stderr, "usage: %s DIR ID GUID STEP N INPUT_VR|- [VALUE] OUTPUT_VR...\n", argv[0]);
-        return 2;
+    Fmu fmus[MAX_FMUS];
+    int n_fmus = 0, runs = 1, reload = 0, arg = 1;
+    memset(fmus, 0, sizeof fmus);
+    for (; arg < argc && strncmp(argv[arg], "--", 2) == 0 && strcmp(argv[arg], "--fmu") != 0; arg++) {
+        if (strcmp(argv[arg], "--runs") == 0 && arg + 1 < argc) runs = atoi(argv[++arg]);
+        else if (strcmp(argv[arg], "--reload") == 0) reload = 1;
+        else return usage(argv[0], "unknown option");
     }
-    const char *dir = argv[1], *id = argv[2], *guid = argv[3];
-    double step = atof(argv[4]);
-    int n_steps = atoi(argv[5]);
-    int arg = 6;
-    int has_input = strcmp(argv[arg], "-") != 0;
-    fmi2ValueReference input_vr = 0;
-    fmi2Real input_value = 0.0;
-    if (has_input) {
-        input_vr = (fmi2ValueReference)atoi(argv[arg++]);
-        input_value = atof(argv[arg++]);
-    } else {
-        arg++;
+    if (argc - arg < 2 || runs < 1) return usage(argv[0], "missing STEP N_STEPS");
+    double step = strtod(argv[arg], NULL);
+    int n_steps = atoi(argv[arg + 1]);
+    arg += 2;
+    /* Each FMU's lists have at most as many entries as there are arguments. */
+    size_t cap = (size_t)argc;
+    for (; arg < argc; arg++) {
+        Fmu *f = n_fmus ? &fmus[n_fmus - 1] : NULL;
+        if (strcmp(argv[arg], "--fmu") == 0 && arg + 3 < argc) {
+            if (n_fmus == MAX_FMUS) return usage(argv[0], "too many --fmu");
+            f = &fmus[n_fmus++];
+            f->dir = argv[arg + 1];
+            f->id = argv[arg + 2];
+            f->guid = argv[arg + 3];
+            f->starts = calloc(cap, sizeof *f->starts);
+            f->in_vr = calloc(cap, sizeof *f->in_vr);
+            f->in_value = calloc(cap, sizeof *f->in_value);
+            f->out_vr = calloc(cap, sizeof *f->out_vr);
+            f->out = calloc(cap, sizeof *f->out);
+            char absolute[PATH_MAX];
+            if (!realpath(f->dir, absolute)) return usage(argv[0], "no such UNZIPPED_DIR");
+            snprintf(f->resources, sizeof f->resources, "file://%s/resources", absolute);
+            arg += 3;
+        } else if (f && strcmp(argv[arg], "--set") == 0 && arg + 3 < argc) {
+            StartValue *s = &f->starts[f->n_starts++];
+            s->kind = argv[arg + 1][0];
+            if (!strchr("ribs", s->kind)) return usage(argv[0], "--set type is real, int, bool or string");
+            s->vr = (fmi2ValueReference)strtoul(argv[arg + 2], NULL, 10);
+            s->value = argv[arg + 3];
+            arg += 3;
+        } else if (f && strcmp(argv[arg], "--input") == 0 && arg + 2 < argc) {
+            f->in_vr[f->n_in] = (fmi2ValueReference)strtoul(argv[arg + 1], NULL, 10);
+            f->in_value[f->n_in++] = strtod(argv[arg + 2], NULL);
+            arg += 2;
+        } else if (f && strcmp(argv[arg], "--output") == 0 && arg + 1 < argc) {
+            f->out_vr[f->n_out++] = (fmi2ValueReference)strtoul(argv[arg + 1], NULL, 10);
+            arg += 1;
+        } else {
+            return usage(argv[0], "bad FMU arguments");
+        }
     }
-    int n_out = argc - arg;
-    fmi2ValueReference *out_vr = calloc((size_t)n_out, sizeof *out_vr);
-    fmi2Real *out = calloc((size_t)n_out, sizeof *out);
-    for (int i = 0; i < n_out; i++) out_vr[i] = (fmi2ValueReference)atoi(argv[arg + i]);
+    if (!n_fmus) return usage(argv[0], "no --fmu");
 
-    char path[4096], resources[4096];
-    snprintf(path, sizeof path, "%s/binaries/linux64/%s.so", dir, id);
-    snprintf(resources, sizeof resources, "file://%s/resources", dir);
-    void *lib = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-    if (!lib) { fprintf(stderr, "dlopen: %s\n", dlerror()); return 3; }
-    LOAD(fmi2Instantiate) LOAD(fmi2SetupExperiment) LOAD(fmi2EnterInitializationMode)
-    LOAD(fmi2ExitInitializationMode) LOAD(fmi2SetReal) LOAD(fmi2GetReal) LOAD(fmi2DoStep)
-    LOAD(fmi2Terminate) LOAD(fmi2FreeInstance)
-
-    fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
-    fmi2Component c = fmi2Instantiate("c_host", fmi2CoSimulation, guid, resources, &callbacks, fmi2False, fmi2False);
-    if (!c) { fprintf(stderr, "fmi2Instantiate failed\n"); return 4; }
-    CHECK(fmi2SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
-    CHECK(fmi2EnterInitializationMode(c));
-    CHECK(fmi2ExitInitializationMode(c));
-    double t = 0.0;
-    for (int k = 0; k < n_steps; k++) {
-        if (has_input) CHECK(fmi2SetReal(c, &input_vr, 1, &input_value));
-        CHECK(fmi2DoStep(c, t, step, fmi2True));
-        t = (k + 1) * step;
-        CHECK(fmi2GetReal(c, out_vr, (size_t)n_out, out));
-        printf("%.17g", t);
-        for (int i = 0; i < n_out; i++) printf(",%.17g", out[i]);
-        printf("\n");
+    int status = OK;
+    for (int i = 0; i < n_fmus; i++)
+        if (!load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
+    for (int run = 0; run < runs && status == OK; run++) {
+        if (run > 0 && reload) {
+            for (int i = 0; i < n_fmus; i++)
+                if (!unload(&fmus[i]) || !load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
+        }
+        status = run_once(fmus, n_fmus, run, step, n_steps);
     }
-    CHECK(fmi2Terminate(c));
-    fmi2FreeInstance(c);
-    fflush(stdout);
-    _exit(0);
+unload:
+    for (int i = 0; i < n_fmus; i++)
+        if (!unload(&fmus[i]) && status == OK) status = LOAD_FAILED;
+    for (int i = 0; i < n_fmus; i++) {
+        free(fmus[i].starts);
+        free(fmus[i].in_vr);
+        free(fmus[i].in_value);
+        free(fmus[i].out_vr);
+        free(fmus[i].out);
+    }
+    fprintf(stderr, "fmi2_host: done, exit status %d\n", status);
+    return status;
 }
