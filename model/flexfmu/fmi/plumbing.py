@@ -80,9 +80,19 @@ class Plumbing:
         self._variables = dict(slave.vars)                    # value reference -> pythonfmu variable
         self._getters = {kind: {vr: v.getter for vr, v in self._variables.items() if type(v) is kind}
                          for kind in _TYPE_NAME}
-        self._setters = {kind: {vr: v.setter for vr, v in self._variables.items()
-                                if type(v) is kind and v.causality != Fmi2Causality.output}
-                         for kind in _TYPE_NAME}
+        self._all_setters = {kind: {vr: v.setter for vr, v in self._variables.items()
+                                    if type(v) is kind and v.causality != Fmi2Causality.output}
+                             for kind in _TYPE_NAME}
+        self._update_settable()
+
+    def _update_settable(self):
+        """What fmi2SetX may set now: inputs and parameters before initialisation, inputs after."""
+        if self._sim is None:
+            self._setters = self._all_setters
+        else:
+            self._setters = {kind: {vr: f for vr, f in setters.items()
+                                    if self._variables[vr].causality != Fmi2Causality.parameter}
+                             for kind, setters in self._all_setters.items()}
 
     def _clear(self):
         """The state after fmi2Instantiate / fmi2Reset."""
@@ -95,6 +105,8 @@ class Plumbing:
         self._sim = None
         self._vector_api = False
         self._start_time = 0.0
+        if hasattr(self, "_all_setters"):
+            self._update_settable()
 
     # ---- variable access
     def _parameter_getter(self, name):
@@ -140,6 +152,9 @@ class Plumbing:
                                 f"use fmi2{'Set' if setting else 'Get'}{wanted}")
             if setting and variable.causality == Fmi2Causality.output:
                 raise FmiStatus(f"{function}: {variable.name!r} is an output; outputs cannot be set")
+            if setting and variable.causality == Fmi2Causality.parameter and self._sim is not None:
+                raise FmiStatus(f"{function}: {variable.name}: a fixed parameter can be set only before "
+                                f"fmi2ExitInitializationMode")
         raise FmiStatus(f"{function}: bad value references {list(vrs)!r}")
 
     def _get(self, kind, function, vrs):
@@ -155,15 +170,9 @@ class Plumbing:
             chosen = [setters[vr] for vr in vrs]
         except KeyError:
             self._refuse_references(function, kind, vrs, setting=True)
-        for vr, value in zip(vrs, values):                    # all checked before any is set
-            if not check(value):
-                name = self._variables[vr].name
-                raise FmiStatus(f"{function}: {name}: got {value!r} (allowed: {_ALLOWED[kind]})")
-        if self._sim is not None:
-            for vr in vrs:
-                if self._variables[vr].causality == Fmi2Causality.parameter:
-                    raise FmiStatus(f"{function}: {self._variables[vr].name}: a fixed parameter can be set only "
-                                    f"before fmi2ExitInitializationMode")
+        if not all(map(check, values)):                       # all checked before any is set
+            vr, value = next((vr, v) for vr, v in zip(vrs, values) if not check(v))
+            raise FmiStatus(f"{function}: {self._variables[vr].name}: got {value!r} (allowed: {_ALLOWED[kind]})")
         for setter, value in zip(chosen, values):
             setter(value)
 
@@ -261,6 +270,7 @@ class Plumbing:
     def exit_initialization_mode(self):
         sim = self._build(dict(self._values))
         self._sim = sim
+        self._update_settable()
         self._vector_api = hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
         self._inputs_changed = False
         self._log_messages()
@@ -325,6 +335,7 @@ class Plumbing:
         self._outputs = list(state["outputs"])
         self._start_time = state["start_time"]
         self._sim = sim
+        self._update_settable()
         self._vector_api = sim is not None and hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
         self._outputs_valid = 2 if sim is not None else 0
         self._inputs_changed = True                # the simulator's inputs are those of the state's last step
