@@ -125,7 +125,15 @@ def build_beam_model(scene: Scene, boundary: str = "scene", elements_per_segment
     clamp_s = boundary_clamps(scene, boundary)
     mesh = build_mesh(scene, elements_per_segment, extra_arc_lengths=tuple(extra_arc_lengths) + clamp_s)
     clamped = np.array(sorted({mesh.node_at(s, "clamps") for s in clamp_s}), dtype=np.int64)
-    M, K = assemble(mesh, rotary_inertia=rotary_inertia)
+    with np.errstate(all="ignore"):                    # overflow: checked by value below
+        M, K = assemble(mesh, rotary_inertia=rotary_inertia)
+    for name, A in (("M", M), ("K", K)):
+        # E I / L^3, rho A L, ... of extreme scene constants overflow (or underflow to a zero mass)
+        require(bool(np.all(np.isfinite(A.data))) and float(np.max(np.abs(A.data), initial=0.0)) > 0.0, "scene",
+                f"{scene.name}: the {'mass' if name == 'M' else 'stiffness'} matrix of {elements_per_segment} elements "
+                "per segment is not finite (or zero): the material, section or lengths are beyond the floating-point "
+                "range",
+                "material, section and coordinates whose products (E I / L^3, rho A L) stay within 1e-300 .. 1e300")
     B2 = boundary_matrix(mesh.n_nodes, clamped)
     return BeamModel(mesh=mesh, boundary=boundary, clamp_s=clamp_s, clamped_nodes=clamped, M=M, K=K, B2=B2,
                      M_free=(B2.T @ M @ B2).tocsr(), K_free=(B2.T @ K @ B2).tocsr(),

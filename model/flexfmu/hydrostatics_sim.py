@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from flexfmu.errors import require
-from flexfmu.sim_util import AXES, MemorylessSimulator, check_config, vector_info
+from flexfmu.sim_util import AXES, MemorylessSimulator, check_config, check_finite_build, vector_info
 from flexfmu.wave import RHO_SEA, G, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
@@ -55,14 +55,42 @@ class HydrostaticsConfig:
         return np.array([getattr(self, n) for n in ZETA_NAMES])
 
 
-@lru_cache(maxsize=16)
 def coefficients(cfg: HydrostaticsConfig) -> tuple[np.ndarray, np.ndarray]:
     """(C, B), 6x6 each."""
-    check_config(cfg)
-    box = cfg.box().check()
+    check_config(cfg)                      # before the cache: it hashes the config
+    return _coefficients(cfg)
+
+
+@lru_cache(maxsize=16)
+def _coefficients(cfg: HydrostaticsConfig) -> tuple[np.ndarray, np.ndarray]:
+    box = checked_box(cfg)
     for name in ZETA_NAMES:
         require(0.0 <= getattr(cfg, name) < 10.0, name, f"got {getattr(cfg, name)!r}", "0 .. 10")
-    return box.hydrostatic_stiffness(), box.radiation_damping(cfg.zeta())
+    try:
+        with np.errstate(all="ignore"):                               # overflow: checked by value below
+            C, B = box.hydrostatic_stiffness(), box.radiation_damping(cfg.zeta())
+    except (OverflowError, ZeroDivisionError, ValueError):           # Python float arithmetic of the box
+        C = B = np.array([np.nan])
+    check_finite_build(cfg, BOX_NAMES, C, B)
+    return C, B
+
+
+BOX_NAMES = ("length", "beam", "draft", "z_G", "r_xx", "r_yy", "r_zz", "rho", "g")
+
+
+def checked_box(cfg) -> FloatingBox:
+    """cfg.box() checked: sizes, densities and gravity > 0, coefficients finite (else the parameter that
+    overflows them is named), then stable in roll and pitch."""
+    box = cfg.box()
+    for name in ("length", "beam", "draft", "r_xx", "r_yy", "r_zz", "rho", "g"):
+        require(getattr(cfg, name) > 0, name, f"got {getattr(cfg, name)!r}", "> 0")
+    try:
+        with np.errstate(all="ignore"):
+            arrays = (box.hydrostatic_stiffness(), box.rigid_mass_matrix(), box.added_mass())
+    except (OverflowError, ZeroDivisionError, ValueError):           # Python float arithmetic of the box
+        arrays = (np.array([np.nan]),)
+    check_finite_build(cfg, BOX_NAMES, *arrays)
+    return box.check()
 
 
 class HydrostaticsSimulator(MemorylessSimulator):
@@ -74,7 +102,7 @@ class HydrostaticsSimulator(MemorylessSimulator):
         super().__init__(config)
         self.C, self.B = coefficients(config)
 
-    def outputs(self) -> dict[str, float]:
+    def _outputs(self) -> dict[str, float]:
         v = self.inputs
         xi = np.array([v[n] for n in INPUT_NAMES[:6]])
         xi_dot = np.array([v[n] for n in INPUT_NAMES[6:]])

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
+from flexfmu.checks import path_exists_as, shown
 from flexfmu.errors import ParameterError
 from flexfmu.structure import Structure
 
@@ -197,13 +198,18 @@ def load_structure(path) -> Structure:
     be read, or the unexpected key if the file holds keys outside the format.
     """
     path = Path(path)
-    if not path.is_file():
-        raise ParameterError("path", f"no such file: {path}", "an existing .npz file")
+    kind = path_exists_as(path)
+    if kind != "file":
+        raise ParameterError("path", f"{shown(str(path))} is a directory" if kind == "directory" else
+                             f"no such file: {shown(str(path))}", "an existing .npz file")
+    if path.stat().st_size == 0:
+        raise ParameterError("path", f"{shown(str(path))} is empty", "a .npz file")
     try:
         with np.load(path, allow_pickle=False) as npz:
             parts = {key: npz[key] for key in npz.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
-        raise ParameterError("path", f"{path} is not a readable .npz file ({exc})", "a .npz file") from None
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, RuntimeError) as exc:
+        # RuntimeError: zlib / zipfile errors of a damaged archive
+        raise ParameterError("path", f"{shown(str(path))} is not a readable .npz file ({exc})", "a .npz file") from None
     for key in REQUIRED_KEYS:
         if key not in parts:
             raise ParameterError(key, f"missing from {path.name}", "keys: " + ", ".join(REQUIRED_KEYS))

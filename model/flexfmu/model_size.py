@@ -72,7 +72,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from flexfmu.assembly import build_beam_model
-from flexfmu.errors import ParameterError, require
+from flexfmu.checks import finite
+from flexfmu.errors import FlexfmuError, ParameterError, require
 from flexfmu.modal import solve_modes
 from flexfmu.modal_basis import N_RIGID, ModalBasis, modal_basis
 from flexfmu.scene import Scene
@@ -125,11 +126,10 @@ class MeshChoice:
 
 def check_band(f_max: float, tolerance: float) -> None:
     """ParameterError unless f_max > 0 (Hz, finite) and tolerance lies in TOLERANCE_RANGE."""
-    require(isinstance(f_max, (int, float, np.floating)) and math.isfinite(f_max) and f_max > 0, "f_max",
-            f"got {f_max!r}", "a finite frequency > 0 Hz")
+    require(finite(f_max) and f_max > 0, "f_max", f"got {f_max!r}", "a finite frequency > 0 Hz")
     lo, hi = TOLERANCE_RANGE
-    require(isinstance(tolerance, (int, float, np.floating)) and math.isfinite(tolerance)
-            and lo <= tolerance <= hi, "tolerance", f"got {tolerance!r}", f"{lo:g} .. {hi:g} (relative)")
+    require(finite(tolerance) and lo <= tolerance <= hi, "tolerance", f"got {tolerance!r}",
+            f"{lo:g} .. {hi:g} (relative)")
 
 
 def richardson(coarse_hz: np.ndarray, fine_hz: np.ndarray, order: int = CONVERGENCE_ORDER):
@@ -177,7 +177,8 @@ class TruncationEstimate:
 
 
 def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, static_full, f_max: float,
-                      damping_ratio: float = 0.0, ritz_residual: bool = False) -> TruncationEstimate:
+                      damping_ratio: float = 0.0, ritz_residual: bool = False,
+                      complete: bool = False) -> TruncationEstimate:
     """Eq. (E) for every number of retained modes m = 0 .. n (the n computed modes).
 
     output_modal: {output name: (3, n) displacement of the output point per mode}; load_modal: {group name:
@@ -185,7 +186,9 @@ def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, sta
     static response o K^-1 g} (its part that the n modes miss is the tail, bounded with A at the highest
     computed frequency).  ritz_residual: the static correction is a set of Ritz vectors (ReframeBody) rather
     than mode acceleration: those respond dynamically at their Rayleigh frequency, which is at least the
-    first omitted mode's, so the static residual share times A(f_max / f_{m+1}) is added."""
+    first omitted mode's, so the static residual share times A(f_max / f_{m+1}) is added.  complete: the n
+    modes are all the model has, so nothing lies beyond them (no tail; keeping all n has no truncation error,
+    even when the highest is below f_max)."""
     lam = np.asarray(eigenvalues, float)
     f = np.asarray(frequencies_hz, float)
     n = lam.size
@@ -194,7 +197,7 @@ def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, sta
     with np.errstate(divide="ignore", invalid="ignore"):
         excess = 1.0 / (1.0 - r**2 + 2j * float(damping_ratio) * r) - 1.0     # H(r) - 1, Eq. (A)
     tail_factor = float(dynamic_error_factor([f[-1]], f_max, damping_ratio)[0]) if n else np.inf
-    next_factor = np.append(factor, tail_factor)          # A of the first omitted mode, m = 0 .. n
+    next_factor = np.append(factor, 0.0 if complete else tail_factor)   # A of the first omitted mode, m = 0 .. n
     errors = np.full(n + 1, -1.0)
     residual_worst = np.zeros(n + 1)
     worst = [""] * (n + 1)
@@ -205,7 +208,7 @@ def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, sta
             contrib = (a / lam) @ b                        # all n modes' static response
             if not scale > 1e-14 * max(np.linalg.norm(contrib, 2), 1e-300):
                 continue                                   # no static response of this output to this group
-            tail = np.linalg.norm(Y - contrib, 2) / scale * tail_factor
+            tail = 0.0 if complete else np.linalg.norm(Y - contrib, 2) / scale * tail_factor
             # |sum_{j > m} c_j (H_j - 1)|: the omitted modes' error matrix at f = f_max, summed from the top
             e = np.zeros(n + 1)
             e[n] = tail
@@ -234,19 +237,141 @@ def truncation_errors(output_modal, load_modal, eigenvalues, frequencies_hz, sta
     return TruncationEstimate(errors=errors, worst=tuple(worst), static_residual=residual_worst)
 
 
+# ------------------------------------------------------------------ a priori: what the finest mesh can resolve
+#: The a-priori check refuses a band only when its estimated error on the finest allowed mesh is this many
+#: times what the tolerance allows: the estimate is of single waves (below), the modes of a bent rod mix them.
+A_PRIORI_MARGIN = 2.0
+#: Estimated errors stalling above this are a band not yet resolved (pre-asymptotic: errors ~0.1 .. 1 whose modes
+#: pair up differently on the next mesh), not the eigen solver's round-off (~1e-7 on fine meshes, growing with
+#: them; the largest stall docs/model_size.md reports is 2.6e-4 at 256 elements per segment).
+ROUNDOFF_CEILING = 1e-3
+#: Most modes of interest (below f_max, or min_modes) the automatic mesh choice resolves: their meshes (up to
+#: 1024 elements per segment, ~18 000 DOFs for three segments) take ~1 min to solve for 200 modes (measured: 134
+#: modes of the spatial double-L, 48 s); the same cap as ReframeBody's n_flexible_modes = -1 (MAX_AUTO_MODES).
+MAX_BAND_MODES = 200
+
+
+def _wave_numbers(scene: Scene, f_hz: float) -> dict:
+    """Wave numbers (1/m) of the rod's axial, torsional and bending waves at f_hz (Euler-Bernoulli)."""
+    sec, mat = scene.section, scene.material
+    w = 2.0 * math.pi * f_hz
+    return {"axial": w * math.sqrt(mat.rho / mat.E),
+            "torsional": w * math.sqrt(mat.rho * sec.Ip / (mat.G * sec.J)),
+            "bending": math.sqrt(w) * (mat.rho * sec.A / (mat.E * min(sec.Iy, sec.Iz))) ** 0.25}
+
+
+def wave_errors(scene: Scene, f_hz: float, h: float) -> dict:
+    """Relative frequency error of each wave type at f_hz on elements of length h: (kh)^2 / 24 for the linear
+    axial and torsional elements, (kh)^4 / 1440 for the Hermite bending element (consistent mass; both within a
+    few % of the measured errors of a straight cantilever's modes up to kh ~ 1)."""
+    k = _wave_numbers(scene, f_hz)
+    return {"axial": (k["axial"] * h) ** 2 / 24.0, "torsional": (k["torsional"] * h) ** 2 / 24.0,
+            "bending": (k["bending"] * h) ** 4 / 1440.0}
+
+
+def estimated_mode_count(scene: Scene, f_hz: float) -> float:
+    """Modes below f_hz, Weyl's estimate L k / pi per wave type (bending in two planes), L the rod's length
+    (118 against 118 computed for the spatial double-L at 100 kHz)."""
+    k = _wave_numbers(scene, f_hz)
+    return scene.total_length / math.pi * (k["axial"] + k["torsional"] + 2.0 * k["bending"])
+
+
+def _frequency_of_mode(scene: Scene, n: int) -> float:
+    """Estimated frequency (Hz) of mode n (the inverse of estimated_mode_count; bisection in log f)."""
+    lo, hi = 1e-6, 1e12
+    for _ in range(100):                                  # fixed count: 1e-6 .. 1e12 to ~1e-10 relative
+        mid = math.sqrt(lo * hi)
+        lo, hi = (mid, hi) if estimated_mode_count(scene, mid) < n else (lo, mid)
+    return hi
+
+
+def resolved_band(scene: Scene, tolerance: float, elements_per_segment: int,
+                  safety_factor: float = SAFETY_FACTOR) -> float:
+    """Estimated highest frequency (Hz) that ``elements_per_segment`` resolve to ``tolerance``: where the worst
+    wave's error (:func:`wave_errors` on the longest segment's elements) times safety_factor reaches it."""
+    h = float(np.max(scene.segment_lengths)) / elements_per_segment
+    lo, hi = 1e-6, 1e12
+    for _ in range(100):
+        mid = math.sqrt(lo * hi)
+        ok = safety_factor * max(wave_errors(scene, mid, h).values()) <= tolerance
+        lo, hi = (mid, hi) if ok else (lo, mid)
+    return lo
+
+
+def check_resolvable(scene: Scene, f_max: float, tolerance: float, min_modes: int = 1,
+                     max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT, safety_factor: float = SAFETY_FACTOR,
+                     min_modes_parameter: str = "min_modes") -> None:
+    """Fast refusal (ParameterError) of a band that the mesh sequence could not resolve, or only after minutes:
+
+    * more than MAX_BAND_MODES modes below f_max (or min_modes > MAX_BAND_MODES), from Weyl's estimate
+      (:func:`estimated_mode_count`): names f_max (or ``min_modes_parameter``);
+    * the finest allowed mesh resolving the band's top to the tolerance by a wide margin: the error of the
+      highest mode of each wave type is estimated from :func:`wave_errors` one mode spacing below the top
+      (c / 2L: lenient) and refused only beyond A_PRIORI_MARGIN times tolerance / safety_factor; names the
+      tolerance when one in TOLERANCE_RANGE would do, else f_max (or ``min_modes_parameter``).
+
+    Borderline bands go to the mesh sequence, which measures."""
+    by_modes = min_modes > 1 and _frequency_of_mode(scene, min_modes) > f_max
+    f_top = _frequency_of_mode(scene, min_modes) if by_modes else f_max
+    band_name = min_modes_parameter if by_modes else "f_max"
+    count = estimated_mode_count(scene, f_max)
+    if max(count, min_modes) > MAX_BAND_MODES:
+        f_cap = _frequency_of_mode(scene, MAX_BAND_MODES)
+        what = (f"{min_modes} modes" if by_modes else
+                f"{f_max:g} Hz: the band up to f_max holds about {count:.0f} modes (estimated)")
+        f_ok = min(f_cap, resolved_band(scene, tolerance, max_elements_per_segment, safety_factor))
+        raise ParameterError(band_name, f"{what}, more than the {MAX_BAND_MODES} whose convergence the automatic mesh "
+                             f"choice resolves (their meshes would take minutes to solve); mode {MAX_BAND_MODES} is at "
+                             f"about {f_cap:.3g} Hz",
+                             f"at most {MAX_BAND_MODES} modes" if by_modes else
+                             f"f_max <= about {f_ok:.3g} Hz at tolerance {tolerance:g}, or elements_per_segment given")
+    L = scene.total_length
+    h = float(np.max(scene.segment_lengths)) / max_elements_per_segment
+    sec, mat = scene.section, scene.material
+    speeds = {"axial": math.sqrt(mat.E / mat.rho), "torsional": math.sqrt(mat.G * sec.J / (mat.rho * sec.Ip))}
+    worst, kind = 0.0, ""
+    for name, error in wave_errors(scene, f_top, h).items():
+        if name in speeds:                                # the highest such mode may lie one spacing lower
+            error = wave_errors(scene, max(f_top - speeds[name] / (2.0 * L), 0.0), h)[name]
+        if error > worst:
+            worst, kind = error, name
+    if not safety_factor * worst > A_PRIORI_MARGIN * tolerance:
+        return
+    limit = resolved_band(scene, tolerance, max_elements_per_segment, safety_factor)
+    lo, hi = TOLERANCE_RANGE
+    looser = safety_factor * worst / A_PRIORI_MARGIN            # a tolerance the estimate would let through
+    name = "tolerance" if looser <= hi else band_name
+    what = (f"{min_modes} modes, reaching about {f_top:.4g} Hz (estimated), beyond f_max = {f_max:g} Hz"
+            if by_modes else f"f_max = {f_max:g} Hz")
+    options = [f"a tolerance >= about {looser:.2g} (of {lo:g} .. {hi:g})"] if looser <= hi else []
+    options.append(f"at most about {max(1, int(estimated_mode_count(scene, limit)))} modes" if by_modes
+                   else f"f_max <= about {limit:.3g} Hz at tolerance {tolerance:g}")
+    if max_elements_per_segment < MAX_ELEMENTS_PER_SEGMENT:
+        options.append("more elements allowed")
+    head = (f"{tolerance:g} is not reachable for {what}" if name == "tolerance"
+            else f"{what} is not resolvable to tolerance {tolerance:g}")
+    raise ParameterError(name, f"{head}: the finest allowed mesh ({max_elements_per_segment} elements per segment, "
+                         f"{h:.3g} m) leaves its {kind} waves there an estimated {worst:.2g} off (x{safety_factor:g} "
+                         f"safety); it resolves up to about {limit:.3g} Hz", ", or ".join(options))
+
+
 def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, tolerance: float, *,
                                 extra_arc_lengths=(), min_modes: int = 1,
                                 max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT,
-                                safety_factor: float = SAFETY_FACTOR) -> MeshChoice:
+                                safety_factor: float = SAFETY_FACTOR,
+                                min_modes_parameter: str = "min_modes") -> MeshChoice:
     """Smallest elements per segment whose frequencies below f_max (and the first ``min_modes``,
     whatever their frequency) are within ``tolerance`` (relative) of the converged ones, estimated
     as in the module docstring.  The meshes are built as flexfmu.assembly.build_beam_model does
-    for the model itself (same boundary and extra nodes)."""
+    for the model itself (same boundary and extra nodes).  A band far beyond what
+    ``max_elements_per_segment`` can resolve is refused up front (:func:`check_resolvable`, naming f_max or
+    ``min_modes_parameter``)."""
     check_band(f_max, tolerance)
     require(isinstance(min_modes, (int, np.integer)) and min_modes >= 1, "min_modes", f"got {min_modes!r}",
             "an integer >= 1")
     require(isinstance(max_elements_per_segment, (int, np.integer)) and max_elements_per_segment >= 1,
             "max_elements_per_segment", f"got {max_elements_per_segment!r}", "an integer >= 1")
+    check_resolvable(scene, f_max, tolerance, min_modes, max_elements_per_segment, safety_factor, min_modes_parameter)
     solved: dict[int, np.ndarray] = {}
     complete: set[int] = set()            # meshes whose every mode is solved (fewer free DOFs than asked)
     n_wanted = max(_FIRST_MODES_SOLVED, min_modes + 1)
@@ -271,8 +396,10 @@ def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, toler
             return np.full(k, np.inf)
         return np.abs(coarse[:k] - reference[:k]) / reference[:k]
 
-    n, previous_worst = 1, np.inf
-    while True:
+    n, previous = 1, None                 # previous: (number of modes of interest, their worst error)
+    # n doubles until 2 n > max_elements_per_segment (raises); the other rounds double n_wanted until the mesh's
+    # every mode is solved: at most ~log2(max_elements_per_segment) * log2(DOFs) rounds, guarded all the same.
+    for _ in range(64 * 64):
         fine = frequencies(2 * n)
         # Every mode below f_max must be among those solved (frequencies converge from above, so the
         # finer mesh's count is the one to trust).
@@ -295,16 +422,20 @@ def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, toler
         if safety_factor * worst_now <= tolerance:
             break
         if 2 * n > max_elements_per_segment:
-            raise ParameterError("tolerance", f"{tolerance:g} is not reachable with at most "
-                                 f"{max_elements_per_segment} elements per segment (estimated error "
-                                 f"{worst_now:.2g} at {n})", f"{TOLERANCE_RANGE[0]:g} .. {TOLERANCE_RANGE[1]:g}, "
-                                 "or more elements allowed")
-        if n >= 8 and math.isfinite(previous_worst) and not worst_now < 0.5 * previous_worst:
-            raise ParameterError("tolerance", f"{tolerance:g} is not reachable: the frequencies stop converging at "
-                                 f"an estimated error {worst_now:.2g} ({n} elements per segment; round-off of the "
-                                 "eigen solver)", f"a tolerance above {safety_factor * worst_now:.2g}")
-        previous_worst = worst_now
+            raise _unreachable(f"{tolerance:g} is not reachable for f_max = {f_max:g} Hz with at most "
+                               f"{max_elements_per_segment} elements per segment", errors, extrapolated, n, f_max,
+                               tolerance, safety_factor, "or more elements allowed")
+        # round-off: the errors of the same modes (the band may have grown) stop halving at a small level
+        if n >= 8 and previous is not None:
+            same = float(np.max(errors[:previous[0]]))
+            if same <= ROUNDOFF_CEILING and math.isfinite(previous[1]) and not same < 0.5 * previous[1]:
+                raise _unreachable(f"{tolerance:g} is not reachable: the frequencies stop converging at an estimated "
+                                   f"error {same:.2g} ({n} elements per segment; round-off of the eigen solver)",
+                                   errors, extrapolated, n, f_max, tolerance, safety_factor)
+        previous = (k, worst_now)
         n *= 2
+    else:
+        raise FlexfmuError(f"the mesh choice did not settle (f_max = {f_max:g} Hz, tolerance {tolerance:g})")
     n_hi = n
     chosen, rejected = n_hi, None
     errors_at = {n_hi: errors}
@@ -331,6 +462,32 @@ def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, toler
                       relative_errors=np.asarray(chosen_errors, float),
                       n_below_f_max=int(np.count_nonzero(extrapolated < f_max)), reference_meshes=(n_hi, 2 * n_hi),
                       rejected=rejected, meshes_solved=tuple(sorted(solved)), safety_factor=float(safety_factor))
+
+
+def _unreachable(text: str, errors, extrapolated, n: int, f_max: float, tolerance: float, safety_factor: float,
+                 more: str = "") -> ParameterError:
+    """ParameterError naming the tolerance when the mesh sequence stops short of it: what was reached, the
+    band that n elements per segment do resolve to the tolerance, and what would be allowed."""
+    errors = np.asarray(errors, float)
+    bad = np.nonzero(~(safety_factor * errors <= tolerance))[0]
+    j = int(np.argmax(np.where(np.isfinite(errors), errors, np.inf)))
+    text += f" (estimated error {errors[j]:.2g} at {n}, mode {j + 1} at {extrapolated[j]:.6g} Hz"
+    resolved = float(extrapolated[bad[0] - 1]) if bad.size and bad[0] > 0 else None
+    if resolved is not None:
+        text += f"; {n} elements per segment resolve the modes up to {resolved:.6g} Hz to it"
+    text += ")"
+    lo, hi = TOLERANCE_RANGE
+    needed = safety_factor * float(errors[j]) if math.isfinite(errors[j]) else math.inf
+    options = []
+    if needed <= hi:
+        options.append(f"a tolerance >= {needed:.2g} (of {lo:g} .. {hi:g})")
+    if resolved is not None and resolved < f_max:
+        options.append(f"f_max < {resolved:.6g} Hz at this tolerance")
+    if more:
+        options.append(more)
+    if not options:
+        options.append(f"a lower f_max: no tolerance in {lo:g} .. {hi:g} reaches {f_max:g} Hz")
+    return ParameterError("tolerance", text, ", or ".join(options))
 
 
 # ---------------------------------------------------------------------------------------------- static correction
@@ -387,6 +544,7 @@ def ffr_truncation_errors(model, modes, patterns: np.ndarray, points: dict, f_ma
     shapes = np.asarray(modes.shapes, float)
     lam = modes.omega**2
     n = model.n_dof
+    complete = shapes.shape[1] == model.n_free
     output_modal, static_full = {}, {}
     load_modal = {g: shapes.T @ free[:, cols] for g, cols in FFR_LOAD_GROUPS.items()}
     for name, point in points.items():
@@ -394,7 +552,8 @@ def ffr_truncation_errors(model, modes, patterns: np.ndarray, points: dict, f_ma
         output_modal[name] = np.asarray(rows @ shapes)
         for g, cols in FFR_LOAD_GROUPS.items():
             static_full[(name, g)] = np.asarray(rows @ static[:, cols])
-    return truncation_errors(output_modal, load_modal, lam, modes.frequencies_hz, static_full, f_max, damping_ratio)
+    return truncation_errors(output_modal, load_modal, lam, modes.frequencies_hz, static_full, f_max, damping_ratio,
+                             complete=complete)
 
 
 @dataclass
@@ -435,6 +594,7 @@ class TruncationChoice:
     error: float
     worst: str
     static_residual: float
+    all_modes: bool = False       # every mode of the mesh kept: the complete basis, no truncation error
 
 
 @dataclass(frozen=True)
@@ -478,8 +638,10 @@ class ModelChoice:
                         "rejected")
             parts.append(why + ");")
         shown = self.frequencies_hz[:self.n_modes]
-        if self.truncation is not None and self.n_modes > max(self.truncation.n_below_f_max, 6) + 1:
-            head = shown[:max(self.truncation.n_below_f_max, 6)]       # long lists: the band, then the last
+        tr = self.truncation
+        band = 6 if tr is not None and tr.all_modes else max(tr.n_below_f_max, 6) if tr is not None else 0
+        if tr is not None and self.n_modes > band + 1:
+            head = shown[:band]                                       # long lists: the band, then the last
             retained = ", ".join(f"{f:.6g}" for f in head) + f", ..., {shown[-1]:.6g}"
         else:
             retained = ", ".join(f"{f:.6g}" for f in shown)
@@ -489,13 +651,21 @@ class ModelChoice:
         if self.modes_chosen and not np.any(self.frequencies_hz[:1] < self.f_max):
             how = "chosen: no mode below f_max, the fundamental kept"
         tr = self.truncation
-        if tr is not None:
+        if tr is not None and tr.all_modes:
+            highest = float(self.frequencies_hz[self.n_modes - 1])
+            how = ("chosen: every mode of the mesh kept, the complete modal basis, so there is no truncation error"
+                   + (f"; the mesh's highest frequency {highest:.6g} Hz is below f_max: this mesh does not resolve the "
+                      "band up to f_max (more elements_per_segment would)" if highest < self.f_max
+                      else ""))
+        elif tr is not None:
             how = (f"chosen: the {tr.n_below_f_max} mode{'s' if tr.n_below_f_max != 1 else ''} below f_max and "
                    f"{self.n_modes - tr.n_below_f_max} above, until the estimated dynamic truncation error of tip_u "
                    f"and sensor_u (mode acceleration, omitted modes amplified as at f_max) is {tr.error:.2e}, "
                    f"x{SAFETY_FACTOR:g} safety <= {self.tolerance:g}, worst: {tr.worst}")
         parts.append(f"n_modes = {self.n_modes} of {self.n_free} ({how}: {retained} Hz{nxt});")
-        if self.static_correction:
+        if self.static_correction and self.n_modes >= self.n_free:
+            parts.append("static correction not needed (no mode omitted)")
+        elif self.static_correction:
             parts.append(f"static correction on (residual flexibility of the {self.n_free - self.n_modes} omitted "
                          "modes for F, M, base_a and base rotation: sensor_u, tip_u and elastic_energy equal the "
                          "full model's in the quasi-static limit; sensor_v, sensor_a and reactions uncorrected)")
@@ -572,8 +742,9 @@ def reframe_truncation_errors(structure, basis: ModalBasis, U: np.ndarray, load_
     output_modal = {name: Phi[rows] for name, rows in points.items()}
     load_modal = {g: Phi[load_rows[cols]].T for g, cols in groups.items()}
     static_full = {(name, g): U[rows][:, cols] for name, rows in points.items() for g, cols in groups.items()}
+    complete = basis.shapes.shape[1] == structure.n_dof           # every mode of the model: nothing omitted
     return truncation_errors(output_modal, load_modal, basis.stiffness[N_RIGID:], basis.frequencies_hz, static_full,
-                             f_max, damping_ratio, ritz_residual=True)
+                             f_max, damping_ratio, ritz_residual=True, complete=complete)
 
 
 def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, load_node: int,
@@ -590,7 +761,7 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
     out_rows = load_point_rows(structure, output_node)[:3]
     zeta = float(np.atleast_1d(damping_ratio)[0])
     n_try, U = min(8, n_max), None
-    while True:
+    for _ in range(2 + n_max.bit_length()):              # n_try doubles up to n_max, where the loop ends
         full = modal_basis(structure, n_try, damping_ratio)
         freqs = full.frequencies_hz
         if U is None and n_try:
@@ -604,12 +775,23 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
         if n_try >= n_max or (n_keep is not None and n_keep < n_try and settled):
             break
         n_try = min(2 * n_try, n_max)
+    complete = n_try == structure.n_dof - N_RIGID         # every flexible mode of the model computed
+    if not complete and n_try and n_below >= n_try:
+        # the band itself holds more modes than n_flexible_modes = -1 computes: a truncated basis would silently
+        # drop modes below f_max
+        raise ParameterError("f_max", f"{f_max:g} Hz: the model has more than {n_try} flexible modes up to f_max, "
+                             f"the most n_flexible_modes = -1 keeps (mode {n_try} is at {freqs[n_try - 1]:.6g} Hz)",
+                             f"f_max < {freqs[n_try - 1]:.6g} Hz, or n_flexible_modes given "
+                             f"(0 .. {structure.n_dof - N_RIGID})")
     if n_keep is None:                                   # the cap reached: keep all computed
         n_keep = n_try
     basis = _select(full, n_keep)
     kept = freqs[:n_keep]
     shown = ", ".join(f"{f:.4g}" for f in kept[:6]) + (f", ..., {kept[-1]:.4g}" if n_keep > 6 else "")
-    if estimate is not None:
+    if estimate is not None and complete and n_keep == n_try:
+        why = (f"every flexible mode of the model, the complete modal basis, so there is no truncation error; "
+               f"{n_below} of them up to f_max = {f_max:g} Hz")
+    elif estimate is not None:
         met = SAFETY_FACTOR * estimate.errors[n_keep] <= tolerance
         why = (f"the {n_below} up to f_max = {f_max:g} Hz and {n_keep - n_below} above, "
                + ("until" if met else "all computed (limit); NOT within tolerance:")

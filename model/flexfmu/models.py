@@ -16,10 +16,9 @@ beam, .npz     the last node                          the first node
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
+from flexfmu.checks import path_exists_as, shown
 from flexfmu.errors import ParameterError
 from flexfmu.structure import Structure
 
@@ -55,7 +54,7 @@ def load_model(spec: str, **options) -> Structure:
     scene or file that does not exist, or the offending option / file key.
     """
     if not isinstance(spec, str) or not spec.strip():
-        raise ParameterError("model", f"{spec!r}", MODEL_ALLOWED)
+        raise ParameterError("model", f"{shown(spec)}", MODEL_ALLOWED)
     spec = spec.strip()
     if spec == "paper_plate":
         _check_options("paper_plate", options)
@@ -68,23 +67,32 @@ def load_model(spec: str, **options) -> Structure:
         _check_options("beam", options)
         name = spec[len(BEAM_PREFIX):].strip()
         scenes = builtin_scene_names()
-        if name not in scenes and not Path(name).is_file():
-            raise ParameterError("model", f"{spec!r}: scene {name!r} is neither a built-in scene nor an existing file",
+        if name not in scenes and path_exists_as(name) != "file":
+            what = ("a directory" if path_exists_as(name) == "directory"
+                    else "neither a built-in scene nor an existing file")
+            raise ParameterError("model", f"{shown(spec)}: scene {shown(name)} is {what}",
                                  "beam:<" + " | ".join(scenes) + " | path to a scene JSON>")
         n = options.get("elements_per_segment", DEFAULT_ELEMENTS_PER_SEGMENT)
-        structure = build_beam_model(load_scene(name), "free", n,
+        structure = build_beam_model(load_scene(name, parameter="model"), "free", n,
                                      rotary_inertia=bool(options.get("rotary_inertia", False))).structure()
         kind = "beam"
     elif spec.lower().endswith(".npz"):
         from flexfmu.io import load_structure
 
         _check_options("npz", options)
-        if not Path(spec).is_file():
-            raise ParameterError("model", f"no such file: {spec}", MODEL_ALLOWED)
-        structure = load_structure(spec)
+        kind = path_exists_as(spec)
+        if kind != "file":
+            raise ParameterError("model", f"{shown(spec)} is a directory, not a .npz file" if kind == "directory"
+                                 else f"no such file: {shown(spec)}", MODEL_ALLOWED)
+        try:
+            structure = load_structure(spec)
+        except ParameterError as exc:
+            if exc.parameter != "path":
+                raise
+            raise ParameterError("model", str(exc).split(": ", 1)[-1], MODEL_ALLOWED) from None
         kind = "npz"
     else:
-        raise ParameterError("model", f"{spec!r} is not a known model", MODEL_ALLOWED)
+        raise ParameterError("model", f"{shown(spec)} is not a known model", MODEL_ALLOWED)
     structure.meta = dict(structure.meta or {})
     structure.meta.update(model=spec, kind=kind)
     return structure

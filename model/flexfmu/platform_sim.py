@@ -17,14 +17,17 @@ balance d(kinetic_energy) = sum of work_* holds to rounding.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
 
-from flexfmu.errors import ParameterError
-from flexfmu.hydrostatics_sim import BOX_INFO
-from flexfmu.sim_util import AXES, check_config, check_inputs, check_state_config, check_step, vector_info
+from flexfmu.errors import NonFiniteError, ParameterError
+from flexfmu.hydrostatics_sim import BOX_INFO, BOX_NAMES, checked_box
+from flexfmu.checks import blame_inputs
+from flexfmu.sim_util import (AXES, check_config, check_finite_build, check_inputs, check_outputs, check_state_config,
+                              check_step, vector_info)
 from flexfmu.vec3 import cross as _cross
 from flexfmu.wave import RHO_SEA, G, FloatingBox
 
@@ -64,12 +67,23 @@ class PlatformConfig:
         return np.array([self.mount_x, self.mount_y, self.mount_z])
 
 
-@lru_cache(maxsize=16)
 def mass_matrix(cfg: PlatformConfig) -> np.ndarray:
     """M_rb + A about O (6x6)."""
-    check_config(cfg)
-    box = cfg.box().check()
-    return box.rigid_mass_matrix() + box.added_mass()
+    check_config(cfg)                      # before the cache: it hashes the config
+    return _mass_matrix(cfg)
+
+
+@lru_cache(maxsize=16)
+def _mass_matrix(cfg: PlatformConfig) -> np.ndarray:
+    box = checked_box(cfg)
+    try:
+        with np.errstate(all="ignore"):
+            M = box.rigid_mass_matrix() + box.added_mass()
+            M_inv = np.linalg.inv(M)
+    except (OverflowError, ZeroDivisionError, ValueError, np.linalg.LinAlgError):
+        M = M_inv = np.array([np.nan])
+    check_finite_build(cfg, BOX_NAMES, M, M_inv)
+    return M
 
 
 class PlatformSimulator:
@@ -113,19 +127,54 @@ class PlatformSimulator:
         """Advance by step_size with the inputs held: constant acceleration, exact."""
         check_step(step_size)
         h = step_size
-        Q = self.group_loads()
-        acc = self.M_inv @ Q.sum(axis=0)
-        d_xi = h * self.xi_dot + 0.5 * h * h * acc
-        xi, xi_dot = self.xi + d_xi, self.xi_dot + h * acc
-        size = float(np.max(np.abs(np.concatenate([xi, xi_dot]))))
-        if not np.isfinite(size) or size > _DIVERGENCE_LIMIT:
+        with np.errstate(all="ignore"):                     # overflow: checked by value below
+            Q = self.group_loads()
+            acc = self.M_inv @ Q.sum(axis=0)
+            d_xi = h * self.xi_dot + 0.5 * h * h * acc
+            xi, xi_dot = self.xi + d_xi, self.xi_dot + h * acc
+            size = float(np.max(np.abs(np.concatenate([xi, xi_dot]))))
+            work = self.work + Q @ d_xi
+        if not np.isfinite(size) or not np.all(np.isfinite(work)) or not np.isfinite(self.t + h):
+            raise self._overflow(h)                          # the state is still that of the step's start
+        if size > _DIVERGENCE_LIMIT:
             raise ParameterError("state", f"diverged at t = {self.t + h:.6g} s (|xi|, |xi_dot| up to {size:.3g})",
                                  "a communication step inside the coupling-stability limit "
                                  "(docs/wave_converter.md)")
-        self.work = self.work + Q @ d_xi
+        self.work = work
         self.xi, self.xi_dot, self.t = xi, xi_dot, self.t + h
 
+    def _overflow(self, h: float) -> NonFiniteError:
+        """NonFiniteError naming the input that alone makes the step overflow (else the step size or the state)."""
+        if not np.isfinite(self.t + h):
+            return NonFiniteError("step_size", f"the time {self.t!r} s + {h!r} s overflows")
+
+        def increments(inputs):
+            saved = self.inputs
+            self.inputs = inputs
+            try:
+                Q = self.group_loads()
+                acc = self.M_inv @ Q.sum(axis=0)
+                return np.concatenate([0.5 * h * h * acc, h * acc, Q @ (0.5 * h * h * acc)])
+            finally:
+                self.inputs = saved
+        name = blame_inputs(dict(self.inputs), increments)
+        if name is None or self.inputs.get(name, 0.0) == 0.0:
+            return NonFiniteError("step_size", f"{h!r} s makes the state overflow (not finite) at t = {self.t!r} "
+                                               "s: the state diverged; allowed: a smaller communication step")
+        return NonFiniteError(name, f"{self.inputs[name]:.6g} makes the state overflow (not finite) at t = "
+                                    f"{self.t!r} s: the state diverged; allowed: inputs within the model's range")
+
     def outputs(self) -> dict[str, float]:
+        try:
+            values = self._outputs()
+        except ArithmeticError:                           # numpy's error mode set to raise: again without it
+            with np.errstate(all="ignore"):
+                values = self._outputs()
+        if not math.isfinite(sum(values.values())):       # one sum; the culprit only on failure
+            check_outputs(self, values)
+        return values
+
+    def _outputs(self) -> dict[str, float]:
         acc = self.acceleration()
         alpha, omega = acc[3:], self.xi_dot[3:]
         mount_a = acc[:3] + _cross(alpha, self.r_m)

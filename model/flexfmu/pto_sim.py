@@ -10,6 +10,7 @@ makes it act along that axis only (F = -c (v.n) n, power c (v.n)^2).  Memoryless
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,8 +40,15 @@ def _check(cfg: PTOConfig) -> np.ndarray | None:
     check_config(cfg)
     require(cfg.damping >= 0, "damping", f"got {cfg.damping!r}", ">= 0 N.s/m")
     axis = np.array([cfg.axis_x, cfg.axis_y, cfg.axis_z])
-    n = float(np.linalg.norm(axis))
-    return None if n == 0 else axis / n
+    scale = float(np.max(np.abs(axis)))
+    if scale == 0:
+        return None
+    with np.errstate(over="ignore", under="ignore"):
+        n = float(np.linalg.norm(axis))
+    if not 0 < n < math.inf:                  # a direction: scaled first when its norm over- or underflows
+        axis = axis / scale
+        n = float(np.linalg.norm(axis))
+    return axis / n
 
 
 class PTOSimulator(MemorylessSimulator):
@@ -59,7 +67,7 @@ class PTOSimulator(MemorylessSimulator):
             v = (v @ self.axis) * self.axis
         return -self.config.damping * v
 
-    def outputs(self) -> dict[str, float]:
+    def _outputs(self) -> dict[str, float]:
         F = self.force()
         c = self.config.damping
         power = float(F @ F) / c if c > 0 else 0.0

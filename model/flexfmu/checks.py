@@ -1,0 +1,184 @@
+"""Range and type checks of the simulators' parameters, the cap on internal steps, and naming the input
+or parameter that drove a model out of the floating-point range (flexfmu.errors explains the error kinds).
+
+The simulators check every parameter at construction (type, range), fail a step *before* changing their
+state when it would need more internal steps than ``max_internal_steps`` (StepRejected when a smaller
+communication step would do, ParameterError naming the cause when not even MIN_COMMUNICATION_STEP would),
+and check the state and outputs for overflow cheaply on the hot path, naming the culprit only on failure.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from flexfmu.errors import NonFiniteError, ParameterError
+
+#: Default cap on the internal steps of one communication step.  Measured need: at most 33 internal steps
+#: per communication step in the test suite (ReframeBody, RK4 at 10 ms), 5 RK4 sub-steps (FFRBeam), a few
+#: hundred in the studies (benchmarks/reframe_exponential.py: 5 ms in 1e-5 s steps = 500); 100 000 leaves a
+#: margin of 200 over the studies and bounds a step at ~1-10 s of CPU (ReframeBody: 7-20 us per internal step
+#: with 10 modes).
+DEFAULT_MAX_INTERNAL_STEPS = 100_000
+#: Allowed max_internal_steps: at least 1; at most 1e8 (minutes of CPU for one communication step).
+MAX_INTERNAL_STEPS_RANGE = (1, 100_000_000)
+#: The smallest communication step a co-simulation master is expected to take (s).  A step that would need
+#: more than max_internal_steps is rejected (fmi2Discard: retry smaller) when a step of at least this size
+#: would be within the cap; otherwise the input or parameter that makes it so is refused (fmi2Error).
+MIN_COMMUNICATION_STEP = 1e-5
+
+
+def is_real(value) -> bool:
+    """A real number (int or float, numpy ones too), not a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def is_int(value) -> bool:
+    """An integer (numpy ones too), not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+
+
+def finite_input(value) -> bool:
+    """math.isfinite for an input value, False (not an exception) for a string or an int too large for a float;
+    cheap on the per-step path (a bool counts as 0 / 1, as float() makes it)."""
+    try:
+        return math.isfinite(value)
+    except (TypeError, OverflowError):
+        return False
+
+
+def finite(value) -> bool:
+    """A finite real number (False for bools, strings, huge ints that do not fit a float, ...)."""
+    if not is_real(value):
+        return False
+    try:
+        return math.isfinite(value)
+    except (OverflowError, TypeError, ValueError):
+        return False
+
+
+def require_real(value, name: str, allowed: str, lo: float = -math.inf, hi: float = math.inf,
+                 lo_open: bool = False, hi_open: bool = False) -> float:
+    """``value`` as a float, or ParameterError naming ``name``: a finite real in [lo, hi] (ends open if asked)."""
+    ok = finite(value)
+    if ok:
+        v = float(value)
+        ok = (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+    if not ok:
+        raise ParameterError(name, f"got {value!r}", allowed)
+    return float(value)
+
+
+def require_int(value, name: str, lo: int, hi: int, allowed: str | None = None) -> int:
+    """``value`` as an int, or ParameterError naming ``name``: an integer (not a bool) in lo .. hi."""
+    if not (is_int(value) and lo <= value <= hi):
+        raise ParameterError(name, f"got {value!r}", allowed or f"an integer {lo} .. {hi}")
+    return int(value)
+
+
+def require_bool(value, name: str) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ParameterError(name, f"got {value!r}", "true | false")
+    return bool(value)
+
+
+def require_str(value, name: str, allowed: str) -> str:
+    if not isinstance(value, str):
+        raise ParameterError(name, f"got {value!r} (not a string)", allowed)
+    return value
+
+
+def check_max_internal_steps(value) -> int:
+    lo, hi = MAX_INTERNAL_STEPS_RANGE
+    return require_int(value, "max_internal_steps", lo, hi,
+                       f"an integer {lo} .. {hi:.0e} (default {DEFAULT_MAX_INTERNAL_STEPS})")
+
+
+def round_down(x: float, digits: int = 4) -> float:
+    """x > 0 rounded down to ``digits`` significant digits: a bound quoted in a message that still holds."""
+    if not (math.isfinite(x) and x > 0):
+        return x
+    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
+    return math.floor(x / scale * (1 - 1e-12)) * scale
+
+
+def shown(value, limit: int = 120) -> str:
+    """repr of a value for a message, shortened (a path or a JSON value can be megabytes long)."""
+    try:
+        text = repr(value)
+    except (RecursionError, ValueError):
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else f"{text[:limit // 2]}...{text[-limit // 4:]} ({len(text)} characters)"
+
+
+def path_exists_as(path) -> str:
+    """"file", "directory", "other" (a device, fifo, ...) or "missing" for a path; never raises (a name too long
+    or with a NUL byte is "missing")."""
+    import os
+    import stat
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError, TypeError):
+        return "missing"
+    return "file" if stat.S_ISREG(mode) else "directory" if stat.S_ISDIR(mode) else "other"
+
+
+def magnitude(value) -> float:
+    """|value| as a float for ranking culprits: inf for non-finite (or unconvertible) values."""
+    try:
+        v = abs(float(value))
+    except (OverflowError, TypeError, ValueError):
+        return math.inf
+    return v if math.isfinite(v) else math.inf
+
+
+def culprit(scores: dict) -> str | None:
+    """The name with the largest score (NaN and inf rank highest); None if all are 0 or there are none."""
+    best, best_score = None, 0.0
+    for name, score in scores.items():
+        s = magnitude(score) if not (isinstance(score, float) and math.isnan(score)) else math.inf
+        if s > best_score:
+            best, best_score = name, s
+    return best
+
+
+def parameter_culprit(config, defaults, names) -> str:
+    """Among the float parameters ``names`` of a config, the one farthest (in orders of magnitude) from its
+    default: the likely cause when a product of parameters overflows."""
+    scores = {}
+    for name in names:
+        value, ref = getattr(config, name), getattr(defaults, name)
+        if not (finite(value) and finite(ref)):
+            continue
+        v, r = abs(float(value)), abs(float(ref))
+        if v > 0 and r > 0:
+            scores[name] = abs(math.log10(v / r))
+        elif v != r:
+            scores[name] = 1.0
+    return culprit(scores) or names[0]
+
+
+def blame_inputs(inputs: dict, evaluate) -> str | None:
+    """The input that alone makes ``evaluate(inputs) -> values`` non-finite (else the largest in magnitude among
+    the non-zero ones), for a failure's message; evaluate is called with one input at a time, the others 0."""
+    nonzero = {k: v for k, v in inputs.items() if v != 0.0}
+    for name in sorted(nonzero, key=lambda k: -magnitude(nonzero[k])):
+        alone = dict.fromkeys(inputs, 0.0)
+        alone[name] = nonzero[name]
+        try:
+            with np.errstate(all="ignore"):
+                values = np.asarray(evaluate(alone), dtype=float)
+            if not np.all(np.isfinite(values)):
+                return name
+        except (ArithmeticError, ValueError):
+            return name
+    return culprit(nonzero)
+
+
+def non_finite(name: str, what: str, value=None, unit: str = "") -> NonFiniteError:
+    """NonFiniteError for ``name`` (an input or parameter) that made ``what`` overflow."""
+    shown = (f"{float(value):.6g}{' ' + unit if unit else ''}" if finite(value)
+             else "its value" if value is None else repr(value))
+    return NonFiniteError(name, f"{shown} makes {what} overflow (not finite); allowed: a smaller magnitude, "
+                                "within the model's floating-point range")
