@@ -17,7 +17,6 @@ balance d(kinetic_energy) = sum of work_* holds to rounding.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
@@ -26,7 +25,7 @@ import numpy as np
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.hydrostatics_sim import BOX_INFO, BOX_NAMES, checked_box
 from flexfmu.checks import blame_inputs
-from flexfmu.sim_util import (AXES, check_config, check_finite_build, check_inputs, check_outputs, check_state_config,
+from flexfmu.sim_util import (AXES, check_config, check_finite_build, check_inputs, check_state_config, checked_outputs,
                               check_step, vector_info)
 from flexfmu.vec3 import cross as _cross
 from flexfmu.wave import RHO_SEA, G, FloatingBox
@@ -165,14 +164,7 @@ class PlatformSimulator:
                                     f"{self.t!r} s: the state diverged; allowed: inputs within the model's range")
 
     def outputs(self) -> dict[str, float]:
-        try:
-            values = self._outputs()
-        except ArithmeticError:                           # numpy's error mode set to raise: again without it
-            with np.errstate(all="ignore"):
-                values = self._outputs()
-        if not math.isfinite(sum(values.values())):       # one sum; the culprit only on failure
-            check_outputs(self, values)
-        return values
+        return checked_outputs(self)
 
     def _outputs(self) -> dict[str, float]:
         acc = self.acceleration()

@@ -81,6 +81,18 @@ def check_state_config(data: dict, config) -> None:
             "a state of this instance's configuration")
 
 
+def checked_outputs(sim) -> dict[str, float]:
+    """``sim._outputs()``, checked: an overflow names the input that caused it (check_outputs)."""
+    try:
+        values = sim._outputs()
+    except ArithmeticError:                           # numpy's error mode set to raise: again without it
+        with np.errstate(all="ignore"):
+            values = sim._outputs()
+    if not math.isfinite(sum(values.values())):       # one sum; the culprit only on failure
+        check_outputs(sim, values)
+    return values
+
+
 class MemorylessSimulator:
     """Plumbing of a component whose outputs depend only on its inputs, parameters and time (no
     dynamic state): the time, the held inputs, the step and the plain-data state for FMI get/set.
@@ -109,14 +121,7 @@ class MemorylessSimulator:
 
     def outputs(self) -> dict[str, float]:
         """The outputs (subclasses compute them in _outputs), checked: an overflow names its input."""
-        try:
-            values = self._outputs()
-        except ArithmeticError:                           # numpy's error mode set to raise: again without it
-            with np.errstate(all="ignore"):
-                values = self._outputs()
-        if not math.isfinite(sum(values.values())):       # one sum; the culprit only on failure
-            check_outputs(self, values)
-        return values
+        return checked_outputs(self)
 
     def _outputs(self) -> dict[str, float]:
         raise NotImplementedError
