@@ -262,3 +262,37 @@ def test_processes_exit_cleanly_under_load(fmus):
         burner.kill()
         burner.wait()
     assert not failures, failures
+
+
+@pytest.mark.parametrize("form", ["file:///", "file:/", "file://localhost/", "root folder", "none", "spaces"])
+def test_resource_locations_hosts_pass(fmus, tmp_path, form):
+    """Hosts spell fmuResourceLocation differently (or point at the FMU's root, or pass NULL): the FMU
+    finds its resources in each case, also in a folder whose name needs percent-encoding."""
+    import ctypes
+    from urllib.parse import quote
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2CoSimulation, fmi2False
+    folder = tmp_path / ("with space %" if form == "spaces" else "plain") / "Hydrostatics"
+    with zipfile.ZipFile(fmus["Hydrostatics"]) as zf:
+        zf.extractall(folder)
+    resources = folder / "resources"
+    location = {"file:///": resources.as_uri(), "spaces": resources.as_uri(),
+                "file:/": "file:" + quote(str(resources)), "file://localhost/": "file://localhost" + quote(str(resources)),
+                "root folder": folder.as_uri(), "none": None}[form]
+    md = read_model_description(str(fmus["Hydrostatics"]))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=str(folder), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="r")
+    log = []
+    logger = fmi2CallbackLoggerTYPE(lambda c, n, status, cat, message: log.append(message))
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = logger
+    component = fmu.fmi2Instantiate(b"r", fmi2CoSimulation, md.guid.encode(),
+                                    location.encode() if location else None, ctypes.byref(callbacks),
+                                    fmi2False, fmi2False)
+    assert component, log
+    fmu.component = component
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+    fmu.freeInstance()

@@ -213,36 +213,50 @@ static int own_path(char *path, size_t size) {
     return 0;
 }
 
-/* fmuResourceLocation ("file:///a%20b/resources", "file:/...", "file://localhost/...") as a path. */
+static int resources_uri_path(const char *uri, char *path, size_t size);
+
+static int is_resources(const char *path) {
+    char probe[4200];
+    snprintf(probe, sizeof probe, "%s/flexfmu_build.json", path);
+    FILE *file = fopen(probe, "r");
+    if (file) fclose(file);
+    return file != NULL;
+}
+
+/* fmuResourceLocation ("file:///a%20b/resources", "file:/...", "file://localhost/...") as a path; when it is
+   missing or does not hold this FMU's resources (hosts differ), the resources next to this library. */
 static int resources_path(const char *uri, char *path, size_t size) {
-    if (uri && strncmp(uri, "file:", 5) == 0) {
-        const char *p = uri + 5;
-        if (strncmp(p, "///", 3) == 0) p += 2;
-        else if (strncmp(p, "//localhost/", 12) == 0) p += 11;
-        else if (strncmp(p, "//", 2) == 0) return -1; /* another host */
-        size_t j = 0;
-        for (; *p && j + 1 < size; p++) {
-            unsigned int byte;
-            if (p[0] == '%' && p[1] && p[2] && sscanf(p + 1, "%2x", &byte) == 1) {
-                path[j++] = (char)byte;
-                p += 2;
-            } else {
-                path[j++] = *p;
-            }
-        }
-        path[j] = '\0';
-        while (j > 1 && path[j - 1] == '/') path[--j] = '\0';
+    if (uri && strncmp(uri, "file:", 5) == 0 && resources_uri_path(uri, path, size) == 0 && is_resources(path))
         return 0;
-    }
-    /* No usable URI: <fmu>/binaries/linux64/<id>.so -> <fmu>/resources */
     char own[4096];
     if (own_path(own, sizeof own) < 0) return -1;
-    for (int up = 0; up < 3; up++) {
+    for (int up = 0; up < 3; up++) { /* <fmu>/binaries/linux64/<id>.so -> <fmu> */
         char *slash = strrchr(own, '/');
         if (!slash) return -1;
         *slash = '\0';
     }
     snprintf(path, size, "%s/resources", own);
+    return is_resources(path) ? 0 : -1;
+}
+
+/* "file:///a%20b/resources", "file:/...", "file://localhost/..." -> "/a b/resources" */
+static int resources_uri_path(const char *uri, char *path, size_t size) {
+    const char *p = uri + 5;
+    if (strncmp(p, "///", 3) == 0) p += 2;
+    else if (strncmp(p, "//localhost/", 12) == 0) p += 11;
+    else if (strncmp(p, "//", 2) == 0) return -1; /* another host */
+    size_t j = 0;
+    for (; *p && j + 1 < size; p++) {
+        unsigned int byte;
+        if (p[0] == '%' && p[1] && p[2] && sscanf(p + 1, "%2x", &byte) == 1) {
+            path[j++] = (char)byte;
+            p += 2;
+        } else {
+            path[j++] = *p;
+        }
+    }
+    path[j] = '\0';
+    while (j > 1 && path[j - 1] == '/') path[--j] = '\0';
     return 0;
 }
 
@@ -390,7 +404,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     char resources[4096];
     if (resources_path(fmuResourceLocation, resources, sizeof resources) < 0) {
-        fail(inst, "fmi2Instantiate", "fmuResourceLocation: not a local file URI (file:///...)");
+        fail(inst, "fmi2Instantiate", "fmuResourceLocation: neither it (a file:/// URI) nor the folder next to "
+                                      "this binary holds the FMU's resources (resources/flexfmu_build.json)");
         free_instance_memory(inst);
         return NULL;
     }
