@@ -101,6 +101,16 @@ def damaged(cut):
 attempt("truncated state", damaged(lambda b: b[: len(b) // 2]))
 attempt("garbage state", damaged(lambda b: bytes(len(b))))
 attempt("state with garbage payload", damaged(lambda b: b[:60] + b"{" * 100000))
+if "max_internal_steps" in variables:          # a step above the cap: fmi2Discard, a smaller one may do
+    def over_cap(f):
+        f.reset(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()
+        f.setInteger([variables["max_internal_steps"].valueReference], [1])
+        for name, value in (("integrator", "rk4"), ("scheme", "consistent")):
+            if name in variables:
+                f.setString([variables[name].valueReference], [value])
+        f.exitInitializationMode()
+        f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1.0)
+    attempt("step above max_internal_steps", over_cap)
 attempt("cancelStep", lambda f: f.cancelStep())
 attempt("getDirectionalDerivative", lambda f: f.getDirectionalDerivative([out_vr], [in_vr or out_vr], [1.0]))
 print(json.dumps({"results": results, "slowest_call_s": slowest, "nonfinite_ok": nonfinite}))
