@@ -20,10 +20,10 @@ import sys
 import time
 from pathlib import Path
 
-from flexfmu.assembly import BOUNDARY_HELP, BOUNDARY_PRESETS
+from flexfmu.ffr.assembly import BOUNDARY_HELP, BOUNDARY_PRESETS
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.report import PAPER_SCENE, format_table, modal_analysis
-from flexfmu.scene import builtin_scene_names, load_scene
+from flexfmu.ffr.report import PAPER_SCENE, format_table, modal_analysis
+from flexfmu.ffr.scene import builtin_scene_names, load_scene
 
 
 def _modal(args: argparse.Namespace) -> int:
@@ -117,7 +117,7 @@ def _run_with_progress(integ, t_end, dt, load, points, every, stream=None):
     one run), with a percentage line on ``stream`` after each chunk once the run takes long."""
     import numpy as np
 
-    from flexfmu.reframe import ReframeResult
+    from flexfmu.reframe.integrator import ReframeResult
 
     stream = sys.stderr if stream is None else stream
     n_steps = int(round(t_end / dt))
@@ -148,9 +148,9 @@ def _reframe(args: argparse.Namespace) -> int:
     """Integrate a free flexible body with the reframe integrator under a constant force."""
     import numpy as np
 
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.models import default_load_point, default_output_point, load_model
-    from flexfmu.reframe import PointLoad, ReframeIntegrator
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.models import default_load_point, default_output_point, load_model
+    from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator
 
     force = _vector3(args.force, "force") if args.force is not None else None
     omega0 = _vector3(args.omega0, "omega0")
@@ -184,7 +184,7 @@ def _reframe(args: argparse.Namespace) -> int:
     result = _run_with_progress(integ, args.t_end, args.dt, load, [out_node], args.every)
 
     if args.out is not None:
-        from flexfmu.reframe_body_sim import OUTPUT_NAMES, output_values
+        from flexfmu.reframe.simulator import OUTPUT_NAMES, output_values
 
         table = np.column_stack([result.t, output_values(result)])
         args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -206,7 +206,8 @@ def _reframe(args: argparse.Namespace) -> int:
 
 def _cosim(args: argparse.Namespace) -> int:
     """Run a system of FMUs from an OspSystemStructure.xml with one of the masters."""
-    from flexfmu import cosim, wec
+    from flexfmu.cosim import masters as cosim
+    from flexfmu.wec import system as wec
 
     system = cosim.load_system(args.system_file, fmu_dir=args.fmu_dir)
     h = system.base_step if args.step is None else args.step

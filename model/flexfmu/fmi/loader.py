@@ -49,7 +49,7 @@ def package_build_id(package_dir: str) -> str:
 
 
 def cache_root() -> str:
-    """As flexfmu.cache.cache_root (this file cannot import flexfmu)."""
+    """As flexfmu.core.cache.cache_root (this file cannot import flexfmu)."""
     explicit = os.environ.get("FLEXFMU_CACHE_DIR")
     if explicit:
         return explicit

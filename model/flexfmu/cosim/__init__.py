@@ -1,0 +1,1 @@
+"""Co-simulation masters for a system of FMUs (fmpy, libcosim, the library)."""

@@ -1,0 +1,308 @@
+"""Scene description: a bent rod as data (JSON schema version 1), validated on load.
+
+A scene is a polyline of straight segments with one cross-section and one
+material, optional clamps and point masses given by arc length ``s`` (m, from
+the first point).  See docs/scene_format.md for the schema and the rule for
+the local axes of non-circular sections.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from flexfmu.core.checks import path_exists_as, shown
+from flexfmu.errors import ParameterError, require
+
+SCHEMA_VERSION = 1
+#: Largest scene file read (bytes): a scene is a few points and constants (the built-in ones are < 1 kB); a
+#: larger file is refused before it is read, not parsed for minutes.
+MAX_SCENE_BYTES = 16 * 2**20
+# Consecutive segments folding back onto each other (angle between directions
+# close to 180 deg) have no meaningful bent-rod interpretation.
+_FOLD_BACK_COS = -1.0 + 1e-9
+_TOP_LEVEL_FIELDS = {"schema_version", "name", "description", "points", "section", "material",
+                     "clamps", "point_masses"}
+
+
+@dataclass(frozen=True)
+class Section:
+    """Cross-section constants, local element axes (see docs/scene_format.md).
+
+    A: area, m^2.  Iy = int z^2 dA, Iz = int y^2 dA (bending about local y / z), m^4.
+    J: Saint-Venant torsion constant, m^4.  Ip = Iy + Iz: polar moment used for torsional inertia.
+    """
+
+    A: float
+    Iy: float
+    Iz: float
+    J: float
+    shape: str = "generic"
+
+    @property
+    def Ip(self) -> float:
+        return self.Iy + self.Iz
+
+
+@dataclass(frozen=True)
+class Material:
+    E: float    # Pa
+    nu: float   # -
+    rho: float  # kg/m^3
+
+    @property
+    def G(self) -> float:
+        return self.E / (2.0 * (1.0 + self.nu))
+
+
+@dataclass(frozen=True)
+class PointMass:
+    s: float     # m, arc length
+    mass: float  # kg
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    points: np.ndarray                 # (n_points, 3) m, body frame
+    section: Section
+    material: Material
+    clamps: tuple[float, ...] = ()     # arc lengths, m
+    point_masses: tuple[PointMass, ...] = ()
+    description: str = ""
+    source: str = field(default="", compare=False)
+
+    @property
+    def segment_lengths(self) -> np.ndarray:
+        return np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+
+    @property
+    def vertex_arc_lengths(self) -> np.ndarray:
+        """Arc length of every polyline vertex, m (first 0, last = total length)."""
+        return np.concatenate([[0.0], np.cumsum(self.segment_lengths)])
+
+    @property
+    def total_length(self) -> float:
+        return float(self.vertex_arc_lengths[-1])
+
+    @property
+    def total_mass(self) -> float:
+        rod = self.material.rho * self.section.A * self.total_length
+        return rod + sum(pm.mass for pm in self.point_masses)
+
+    def point_at(self, s: float) -> np.ndarray:
+        """Undeformed body-frame position of arc length s, m."""
+        check_arc_length(self, s, "s")
+        vertex_s = self.vertex_arc_lengths
+        seg = int(np.clip(np.searchsorted(vertex_s, s, side="right") - 1, 0, len(vertex_s) - 2))
+        t = (s - vertex_s[seg]) / (vertex_s[seg + 1] - vertex_s[seg])
+        return (1 - t) * self.points[seg] + t * self.points[seg + 1]
+
+
+def check_arc_length(scene: Scene, s: float, parameter: str) -> float:
+    """Validate an arc length against the rod, with a tolerance for rounding at the ends."""
+    total = scene.total_length
+    tol = 1e-9 * total
+    require(_is_number(s) and -tol <= float(s) <= total + tol, parameter,
+            f"arc length {shown(s)} m is outside the rod", f"0 <= {parameter} <= {total:.6g} m")
+    return float(min(max(float(s), 0.0), total))
+
+
+# ---------------------------------------------------------------- validation
+
+def _is_number(x) -> bool:
+    if not isinstance(x, (int, float)) or isinstance(x, bool):
+        return False
+    try:
+        return math.isfinite(x)
+    except OverflowError:                 # a JSON integer too large for a float
+        return False
+
+
+def _positive(d: dict, key: str, prefix: str) -> float:
+    name = f"{prefix}.{key}"
+    require(key in d, name, "missing", "a number > 0")
+    require(_is_number(d[key]) and d[key] > 0, name, f"must be a positive number, got {shown(d[key])}", "> 0")
+    return float(d[key])
+
+
+def _check_fields(d: dict, allowed: set[str], prefix: str) -> None:
+    unknown = sorted(set(d) - allowed)
+    require(not unknown, f"{prefix}{unknown[0][:60] if unknown else ''}",
+            "unknown field", ", ".join(sorted(allowed)))
+
+
+def section_from_dict(d) -> Section:
+    """Section constants from one of the four schema forms."""
+    require(isinstance(d, dict), "section", "must be an object", "circle | tube | rectangle | {A, Iy, Iz, J}")
+    shape = d.get("shape")
+    if shape is None:
+        _check_fields(d, {"A", "Iy", "Iz", "J"}, "section.")
+        A, Iy, Iz, J = (_positive(d, k, "section") for k in ("A", "Iy", "Iz", "J"))
+        return Section(A, Iy, Iz, J, "generic")
+    if shape == "circle":
+        _check_fields(d, {"shape", "diameter"}, "section.")
+        dia = _positive(d, "diameter", "section")
+        I = math.pi * dia**4 / 64
+        return Section(math.pi * dia**2 / 4, I, I, 2 * I, "circle")
+    if shape == "tube":
+        _check_fields(d, {"shape", "outer_diameter", "inner_diameter"}, "section.")
+        do = _positive(d, "outer_diameter", "section")
+        di = d.get("inner_diameter")
+        require(_is_number(di) and 0 <= di < do, "section.inner_diameter",
+                f"must be a number in [0, outer_diameter), got {shown(di)}", f"0 <= inner_diameter < {do} m")
+        I = math.pi * (do**4 - di**4) / 64
+        return Section(math.pi * (do**2 - di**2) / 4, I, I, 2 * I, "tube")
+    if shape == "rectangle":
+        _check_fields(d, {"shape", "width", "height"}, "section.")
+        b = _positive(d, "width", "section")    # along local z
+        h = _positive(d, "height", "section")   # along local y
+        long_side, short_side = max(b, h), min(b, h)
+        r = short_side / long_side
+        # Roark's approximation of the Saint-Venant torsion constant of a solid rectangle (< 4 % error).
+        J = long_side * short_side**3 * (1 / 3 - 0.21 * r * (1 - r**4 / 12))
+        return Section(b * h, h * b**3 / 12, b * h**3 / 12, J, "rectangle")
+    raise ParameterError("section.shape", f"unknown shape {shown(shape)}",
+                         "circle, tube, rectangle (or give A, Iy, Iz, J)")
+
+
+def material_from_dict(d) -> Material:
+    require(isinstance(d, dict), "material", "must be an object", "{E, nu, rho}")
+    _check_fields(d, {"E", "nu", "rho"}, "material.")
+    E = _positive(d, "E", "material")
+    rho = _positive(d, "rho", "material")
+    require("nu" in d, "material.nu", "missing", "-1 < nu < 0.5")
+    nu = d["nu"]
+    require(_is_number(nu) and -1.0 < nu < 0.5, "material.nu", f"got {shown(nu)}", "-1 < nu < 0.5")
+    return Material(E, float(nu), rho)
+
+
+def scene_from_dict(d, source: str = "") -> Scene:
+    """Validate a scene dictionary (schema version 1) and build a :class:`Scene`."""
+    require(isinstance(d, dict), "scene", "must be a JSON object", "see docs/scene_format.md")
+    _check_fields(d, _TOP_LEVEL_FIELDS, "")
+    version = d.get("schema_version", SCHEMA_VERSION)
+    require(version == SCHEMA_VERSION, "schema_version", f"unsupported version {shown(version)}", str(SCHEMA_VERSION))
+    name = d.get("name", Path(source).stem if source else "scene")
+    require(isinstance(name, str) and name != "", "name", "must be a non-empty string")
+
+    pts = d.get("points")
+    require(isinstance(pts, list) and len(pts) >= 2, "points",
+            "need a list of at least 2 points [x, y, z]", "at least 2 points")
+    for i, p in enumerate(pts):
+        require(isinstance(p, list) and len(p) == 3 and all(_is_number(c) for c in p),
+                f"points[{i}]", f"must be 3 finite numbers [x, y, z] in m, got {shown(p)}")
+    points = np.asarray(pts, dtype=float)
+    seg = np.diff(points, axis=0)
+    lengths = np.linalg.norm(seg, axis=1)
+    scale = max(float(np.max(np.abs(points))), 1e-300)
+    for i, L in enumerate(lengths):
+        require(L > 1e-12 * scale, f"points[{i + 1}]", f"segment {i + 1} has zero length",
+                "consecutive points must differ")
+        # a length that overflows (coordinates near 1e308) would make every arc length check read "<= inf m"
+        require(math.isfinite(L), f"points[{i + 1}]", f"segment {i + 1} is too long to represent ({shown(pts[i])} to "
+                f"{shown(pts[i + 1])})", "coordinates whose differences stay below 1e300 m")
+    dirs = seg / lengths[:, None]
+    for i in range(len(dirs) - 1):
+        cos = float(dirs[i] @ dirs[i + 1])
+        require(cos > _FOLD_BACK_COS, f"points[{i + 1}]",
+                f"segments {i + 1} and {i + 2} fold back onto each other (angle 180 deg)",
+                "any angle between consecutive segments except a full fold-back")
+
+    try:
+        section = section_from_dict(d.get("section"))
+    except OverflowError:                     # d^4, b h^3 of sizes near 1e77 m and above
+        section = None
+    require(section is not None and all(math.isfinite(v) and v > 0 for v in (section.A, section.Iy, section.Iz,
+                                                                              section.J)),
+            "section", "its area or moments overflow or underflow (not finite, or 0)",
+            "sizes whose 4th powers stay within the floating-point range (about 1e-75 .. 1e75 m)")
+    material = material_from_dict(d.get("material"))
+    total = float(lengths.sum())
+    require(math.isfinite(total), "points", "the rod's total length overflows", "coordinates below 1e300 m")
+    tol = 1e-9 * total
+
+    clamps_raw = d.get("clamps", [])
+    require(isinstance(clamps_raw, list), "clamps", "must be a list of arc lengths (m)")
+    clamps = []
+    for i, s in enumerate(clamps_raw):
+        require(_is_number(s) and -tol <= s <= total + tol, f"clamps[{i}]",
+                f"arc length {shown(s)} m is outside the rod", f"0 <= s <= {total:.6g} m")
+        clamps.append(min(max(float(s), 0.0), total))
+
+    masses_raw = d.get("point_masses", [])
+    require(isinstance(masses_raw, list), "point_masses", "must be a list of {s, mass}")
+    masses = []
+    for i, pm in enumerate(masses_raw):
+        require(isinstance(pm, dict), f"point_masses[{i}]", "must be an object {s, mass}")
+        _check_fields(pm, {"s", "mass"}, f"point_masses[{i}].")
+        s = pm.get("s")
+        require(_is_number(s) and -tol <= s <= total + tol, f"point_masses[{i}].s",
+                f"arc length {shown(s)} m is outside the rod", f"0 <= s <= {total:.6g} m")
+        mass = _positive(pm, "mass", f"point_masses[{i}]")
+        masses.append(PointMass(min(max(float(s), 0.0), total), mass))
+
+    description = d.get("description", "")
+    require(isinstance(description, str), "description", "must be a string")
+    return Scene(name=name, points=points, section=section, material=material,
+                 clamps=tuple(sorted(set(clamps))), point_masses=tuple(masses),
+                 description=description, source=source)
+
+
+# ---------------------------------------------------------------- loading
+
+def builtin_scene_names() -> list[str]:
+    folder = resources.files("flexfmu") / "scenes"
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".json"))
+
+
+def load_scene(name_or_path: str | Path, parameter: str = "scene") -> Scene:
+    """Load a built-in scene by name, or a scene JSON file by path, and validate it.  Every problem with the
+    file (missing, a directory, empty, too large, unreadable, not UTF-8, not JSON, nested too deeply) is a
+    ParameterError naming ``parameter`` (the FMU parameter that gave the name) and the file."""
+    text = str(name_or_path)
+    names = builtin_scene_names()
+    allowed = "one of " + ", ".join(names) + ", or a path to a scene JSON (UTF-8)"
+    if text in names:
+        raw = (resources.files("flexfmu") / "scenes" / f"{text}.json").read_text(encoding="utf-8")
+        source = f"builtin:{text}"
+    else:
+        path = Path(text)
+        kind = path_exists_as(text)
+        require(kind != "directory", parameter, f"{shown(text)} is a directory, not a scene file", allowed)
+        require(kind == "file", parameter, f"{shown(text)} is neither a built-in scene nor an existing file"
+                + (" (a device or pipe)" if kind == "other" else ""), allowed)
+        source = str(path)
+        try:
+            size = path.stat().st_size
+            require(size <= MAX_SCENE_BYTES, parameter, f"{shown(source)} is {size} bytes, too large for a scene file",
+                    f"at most {MAX_SCENE_BYTES} bytes")
+            data_bytes = path.read_bytes()
+        except OSError as exc:
+            raise ParameterError(parameter, f"{shown(source)} cannot be read ({exc.strerror or exc})",
+                                 allowed) from None
+        require(data_bytes.strip() != b"", parameter, f"{shown(source)} is empty", "a scene JSON object "
+                "(docs/scene_format.md)")
+        try:
+            raw = data_bytes.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ParameterError(parameter, f"{shown(source)} is not UTF-8 text (byte {data_bytes[exc.start]:#04x} at "
+                                 f"offset {exc.start})", "a scene JSON file encoded in UTF-8") from None
+    try:
+        data = json.loads(raw)
+    except json.JSONDecodeError as exc:
+        raise ParameterError(parameter, f"{shown(source)} is not valid JSON: {exc}") from None
+    except RecursionError:
+        raise ParameterError(parameter, f"{shown(source)} nests JSON arrays or objects too deeply to read",
+                             "a scene JSON (schema version 1: nested at most 3 levels)") from None
+    except ValueError as exc:                 # e.g. an integer literal longer than Python converts
+        raise ParameterError(parameter, f"{shown(source)} has a value that cannot be read: {exc}") from None
+    try:
+        return scene_from_dict(data, source=source)
+    except RecursionError:
+        raise ParameterError(parameter, f"{shown(source)} nests JSON arrays or objects too deeply",
+                             "a scene JSON (schema version 1: nested at most 3 levels)") from None

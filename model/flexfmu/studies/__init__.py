@@ -1,0 +1,1 @@
+"""Studies shared by benchmarks and tests (the spin-up beam)."""

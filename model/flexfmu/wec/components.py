@@ -1,0 +1,139 @@
+"""Small helpers shared by the wave-energy-converter component façades (wave_excitation_sim,
+hydrostatics_sim, platform_sim, pto_sim): input checks, plain-data state, variable descriptions."""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, fields
+
+import numpy as np
+
+from flexfmu.core.checks import blame_inputs, finite, finite_input, is_int, parameter_culprit, shown
+from flexfmu.errors import NonFiniteError, ParameterError, require
+
+AXES = ("x", "y", "z")
+#: the six generalised (rigid-body) directions, in the order of the 6-vectors
+DOF6 = ("x", "y", "z", "rx", "ry", "rz")
+
+
+def check_config(cfg) -> None:
+    """Every field of its declared type: float a finite real number (not a bool), int an integer (not a bool),
+    bool a bool, str a string.  The ranges are the components' own checks."""
+    for f in fields(cfg):
+        value = getattr(cfg, f.name)
+        kind = f.type if isinstance(f.type, str) else getattr(f.type, "__name__", "")
+        if kind == "float":
+            require(finite(value), f.name, f"got {value!r}", "a finite number")
+        elif kind == "int":
+            require(is_int(value), f.name, f"got {value!r}", "an integer")
+        elif kind == "bool":
+            require(isinstance(value, (bool, np.bool_)), f.name, f"got {value!r}", "true | false")
+        elif kind == "str":
+            require(isinstance(value, str), f.name, f"got {value!r}", "a string")
+
+
+def check_finite_build(cfg, names, *arrays) -> None:
+    """ParameterError naming the parameter (of ``names``) farthest from its default when a component's
+    coefficients built from them overflow: they multiply (rho g H L B ..., or 1 / T^2)."""
+    if all(np.all(np.isfinite(a)) for a in arrays):
+        return
+    name = parameter_culprit(cfg, type(cfg)(), names)
+    raise ParameterError(name, f"{getattr(cfg, name)!r} makes the component's coefficients overflow (not finite)",
+                         "values whose products stay within the floating-point range")
+
+
+def check_outputs(sim, values) -> None:
+    """NonFiniteError naming the input that alone makes an output overflow (memoryless components: the outputs
+    are functions of the inputs); called only when ``values`` are not all finite."""
+    bad = [name for name, v in values.items() if not math.isfinite(v)]
+    if not bad:
+        return
+
+    def evaluate(inputs):
+        saved = sim.inputs
+        sim.inputs = inputs
+        try:
+            return list(sim._outputs().values())
+        finally:
+            sim.inputs = saved
+    name = blame_inputs(dict(sim.inputs), evaluate) if sim.inputs else None
+    if name is None:
+        raise NonFiniteError(", ".join(bad), f"not finite at t = {sim.time!r} s (the parameters drive the "
+                                             "component beyond the floating-point range)")
+    raise NonFiniteError(name, f"{sim.inputs[name]:.6g} makes {', '.join(bad)} overflow (not finite) at t = "
+                               f"{sim.time!r} s; allowed: inputs within the model's range")
+
+
+def check_inputs(inputs: dict, names: tuple) -> None:
+    """Every name an input, every value finite (per step: the messages are built only on failure)."""
+    for name, value in inputs.items():
+        if name not in names:
+            raise ParameterError(name, "unknown input", ", ".join(names))
+        if not finite_input(value):
+            raise ParameterError(name, f"input is {shown(value)}", "a finite number")
+
+
+def check_step(step_size: float) -> None:
+    require(finite(step_size) and step_size > 0, "step_size", f"got {step_size!r}", "> 0 s")
+
+
+def check_state_config(data: dict, config) -> None:
+    require(data.get("config") == asdict(config), "FMUstate", "was taken with other parameters",
+            "a state of this instance's configuration")
+
+
+def checked_outputs(sim) -> dict[str, float]:
+    """``sim._outputs()``, checked: an overflow names the input that caused it (check_outputs)."""
+    try:
+        values = sim._outputs()
+    except ArithmeticError:                           # numpy's error mode set to raise: again without it
+        with np.errstate(all="ignore"):
+            values = sim._outputs()
+    if not math.isfinite(sum(values.values())):       # one sum; the culprit only on failure
+        check_outputs(sim, values)
+    return values
+
+
+class MemorylessSimulator:
+    """Plumbing of a component whose outputs depend only on its inputs, parameters and time (no
+    dynamic state): the time, the held inputs, the step and the plain-data state for FMI get/set.
+    Subclasses set INPUTS (the input names) and compute outputs()."""
+
+    INPUTS: tuple = ()
+
+    def __init__(self, config):
+        self.config = config
+        self.t = 0.0
+        self.inputs = dict.fromkeys(self.INPUTS, 0.0)
+
+    @property
+    def time(self) -> float:
+        return self.t
+
+    def set_inputs(self, **inputs: float) -> None:
+        check_inputs(inputs, self.INPUTS)
+        self.inputs.update({k: float(v) for k, v in inputs.items()})
+
+    def step(self, step_size: float) -> None:
+        check_step(step_size)
+        if not math.isfinite(self.t + step_size):
+            raise NonFiniteError("step_size", f"the time {self.t!r} s + {step_size!r} s overflows")
+        self.t += step_size
+
+    def outputs(self) -> dict[str, float]:
+        """The outputs (subclasses compute them in _outputs), checked: an overflow names its input."""
+        return checked_outputs(self)
+
+    def _outputs(self) -> dict[str, float]:
+        raise NotImplementedError
+
+    def get_state(self) -> dict:
+        return {"t": self.t, "inputs": dict(self.inputs), "config": asdict(self.config)}
+
+    def set_state(self, data: dict) -> None:
+        check_state_config(data, self.config)
+        self.t = float(data["t"])
+        self.inputs = dict(data.get("inputs", {}))
+
+
+def vector_info(prefix: str, unit: str, text: str, frame: str = "body") -> dict:
+    return {f"{prefix}_{a}": (unit, f"{text}, {frame} {a}") for a in AXES}
