@@ -6,8 +6,8 @@
 Variants (each timed in this process, best of --repeat by wall time, its CPU time alongside):
   eigsh + SuperLU      the previous method: ARPACK shift-invert eigsh, one SuperLU factorisation,
                        single-vector solves (reimplemented here from the old _flexible_candidates)
-  Lanczos + SuperLU    flexfmu.modal_basis now without PARDISO (FLEXFMU_PARDISO=0)
-  Lanczos + PARDISO    flexfmu.modal_basis now with the optional pypardiso installed
+  Lanczos + SuperLU    flexfmu.linalg.modal_basis now without PARDISO (FLEXFMU_PARDISO=0)
+  Lanczos + PARDISO    flexfmu.linalg.modal_basis now with the optional pypardiso installed
 --block / --rtol add Lanczos variants with other KRYLOV_BLOCK / KRYLOV_RTOL.
 
 Columns: factorisation s (K - sigma M), solves s (all shift-invert solves), rest s (validation, rigid
@@ -31,8 +31,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT / "model") not in sys.path:
     sys.path.insert(0, str(ROOT / "model"))
 
-import flexfmu.modal_basis as mb  # noqa: E402
-from flexfmu.models import load_model  # noqa: E402
+import flexfmu.linalg.modal_basis as mb  # noqa: E402
+from flexfmu.reframe.models import load_model  # noqa: E402
 
 N_FLEXIBLE = 10
 

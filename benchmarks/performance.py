@@ -58,7 +58,7 @@ def machine() -> dict:
         pass
     import scipy
 
-    from flexfmu import _reframe_kernels as kern
+    from flexfmu.reframe import kernels as kern
     numba_version = None
     if kern.NUMBA:
         import numba
@@ -70,9 +70,9 @@ def machine() -> dict:
 
 # --------------------------------------------------------------------------- reframe
 def _plate_integrator(divisions, n_flexible=10, scheme="consistent"):
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.plate import paper_plate
-    from flexfmu.reframe import ReframeIntegrator
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.plate import paper_plate
+    from flexfmu.reframe.integrator import ReframeIntegrator
 
     t0 = time.perf_counter()
     plate = paper_plate(divisions)
@@ -87,8 +87,8 @@ def _plate_integrator(divisions, n_flexible=10, scheme="consistent"):
 def reframe_step_times(integ, n=2000):
     """(single advance() call, batched advance_steps, output_vector, output_vector without the max elastic
     displacement search) per call, s; paper's load, moving."""
-    from flexfmu.plate import LOAD_POINT
-    from flexfmu.reframe import RK4_STABILITY_LIMIT, PointLoad, half_sine_pulse
+    from flexfmu.reframe.plate import LOAD_POINT
+    from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, PointLoad, half_sine_pulse
 
     # the paper's 1e-4 s, or less where many retained modes need it (RK4: dt * omega_max <= 2.8)
     dt = min(1e-4, 0.9 * RK4_STABILITY_LIMIT / integ.data.omega_max) if integ.data.omega_max > 0 else 1e-4
@@ -219,7 +219,7 @@ def record_time(measure, duration: float) -> tuple[float, str]:
 
 
 def ffrbeam_library_step(n=20000):
-    from flexfmu.ffr_beam_sim import INPUT_NAMES, FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.ffr.simulator import INPUT_NAMES, FFRBeamConfig, FFRBeamSimulator
     sim = FFRBeamSimulator(FFRBeamConfig(**FFR_HAMMER_START))
     sim.set_input_vector([0.0] * len(INPUT_NAMES))          # after the blow: the record's 599 990 other steps
 
@@ -312,7 +312,7 @@ def reframebody_calls(fmu: Path, npz: Path, n_internal=10, n=500) -> dict:
     force held (no input change), and with max_elastic_displacement read as well.  Library, same
     configuration: ReframeBodySimulator.set_input_vector (a new force), .step, .output_vector without the
     deferred search.  Medians per call (:func:`_per_call`), s."""
-    from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+    from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
     start = {"model": str(npz), "n_flexible_modes": 10, "internal_step": 1e-4}
     sl = _Slave(fmu, **start)
     lib = ReframeBodySimulator(ReframeBodyConfig(**start))
@@ -385,9 +385,9 @@ def exudyn_comparison(quick: bool) -> dict | None:
         eu = np.max(np.linalg.norm(u - u_ref, axis=1)) / np.max(np.linalg.norm(u_ref, axis=1))
         return float(ew), float(eu)
 
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.plate import LOAD_POINT, paper_plate
-    from flexfmu.reframe import PointLoad, ReframeIntegrator, half_sine_pulse
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.plate import LOAD_POINT, paper_plate
+    from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, half_sine_pulse
     plate = paper_plate(gen.DIVISIONS)
     basis = modal_basis(plate, gen.N_FLEXIBLE, gen.ZETA)
     load = PointLoad(LOAD_POINT, half_sine_pulse(gen.FORCE, gen.PULSE))
@@ -425,9 +425,9 @@ def exudyn_comparison(quick: bool) -> dict | None:
 
 # --------------------------------------------------------------------------- set-up
 def frame_modal_time(target_dof=10_000) -> tuple[int, float]:
-    from flexfmu.assembly import build_beam_model
-    from flexfmu.modal import solve_modes
-    from flexfmu.scene import load_scene
+    from flexfmu.ffr.assembly import build_beam_model
+    from flexfmu.linalg.modal import solve_modes
+    from flexfmu.ffr.scene import load_scene
     scene = load_scene("spatial_double_L")
     n_seg = len(scene.points) - 1
     eps = max(1, int(round(target_dof / (6 * n_seg))))
@@ -484,7 +484,7 @@ def run(quick: bool) -> tuple[list, list, dict]:
         print(f"{figure:60s} {ours:>12s} {peer:>14s} {rows[-1][3]:>6s} {note}", flush=True)
 
     print(f"{'figure':60s} {'ours':>12s} {'peer / limit':>14s} {'ratio':>6s}")
-    from flexfmu import _reframe_kernels as kern
+    from flexfmu.reframe import kernels as kern
 
     # (2) per step, m = 16, and (1) mesh independence
     small, info_s = _plate_integrator((10, 2, 1))
@@ -521,7 +521,7 @@ def run(quick: bool) -> tuple[list, list, dict]:
         tmp = Path(tmpdir)
         fmus = _build_fmus(tmp / "dist")
         noop = build_noop_fmu(tmp)
-        from flexfmu.io import save_structure
+        from flexfmu.core.io import save_structure
         npz = save_structure(tmp / "plate_10x2x1.npz", small.data.structure)
         noop_calls = noop_fmu_calls(noop)
         floor = noop_calls["cycle"]
@@ -604,8 +604,8 @@ def run(quick: bool) -> tuple[list, list, dict]:
     n_frame, t_frame = frame_modal_time()
     row(f"frame set-up: mesh + assembly + 10 modes, {n_frame} DOFs", fmt_t(t_frame), "2 s", t_frame / 2.0)
     if not quick:
-        from flexfmu.modal_basis import _mkl_pardiso, modal_basis
-        from flexfmu.models import load_model
+        from flexfmu.linalg.modal_basis import _mkl_pardiso, modal_basis
+        from flexfmu.reframe.models import load_model
         pardiso = _mkl_pardiso() is not None and os.environ.get("FLEXFMU_PARDISO", "1") != "0"
         _, info_d = _plate_integrator((100, 8, 2))
         row(f"plate set-up: mesh + assembly, {info_d['n_dof']} DOFs", fmt_t(info_d["assembly"]), "–", None)

@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
 T_END = 0.2
 F = 50.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)

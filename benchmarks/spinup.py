@@ -21,7 +21,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "model"))
 
-from flexfmu import spinup  # noqa: E402
+from flexfmu.studies import spinup  # noqa: E402
 
 REFERENCE = ROOT / "tests" / "reference" / "spinup" / "trajectory.csv"
 FIGURES = ROOT / "docs" / "figures"

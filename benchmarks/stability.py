@@ -40,9 +40,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from flexfmu.errors import FlexfmuError  # noqa: E402
-from flexfmu.modal_basis import mass_properties, modal_basis  # noqa: E402
-from flexfmu.models import load_model  # noqa: E402
-from flexfmu.reframe import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator  # noqa: E402
+from flexfmu.linalg.modal_basis import mass_properties, modal_basis  # noqa: E402
+from flexfmu.reframe.models import load_model  # noqa: E402
+from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator  # noqa: E402
 
 BEAM_MODEL = "beam:spatial_double_L"     # free-free bent rod, 6 DOF per node
 BEAM_ELEMENTS = 4                        # elements per segment: 13 nodes, flexible modes 148, 266, 280 Hz
@@ -61,7 +61,7 @@ def beam(elements_per_segment: int = BEAM_ELEMENTS):
 
 
 def principal_axes(structure):
-    """Principal moments (ascending) and axes (columns) of the rigid body (flexfmu.modal_basis.mass_properties:
+    """Principal moments (ascending) and axes (columns) of the rigid body (flexfmu.linalg.modal_basis.mass_properties:
     from M and the nodes, independent of the modal basis)."""
     props = mass_properties(structure)
     return props.principal_moments, props.principal_axes
@@ -255,9 +255,9 @@ def platform_beam_system(mass_ratio: float, beam_values: dict | None = None):
     acceleration (the beam's base motion), the beam returns its clamp reactions (the platform's
     payload load).  The platform's density rho is set so that beam mass / platform mass
     (rho L B T, without the added mass the Platform also carries) equals ``mass_ratio``."""
-    from flexfmu.cosim import SimulatorSpec, System
-    from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-    from flexfmu.platform_sim import PlatformConfig
+    from flexfmu.cosim.masters import SimulatorSpec, System
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.wec.platform import PlatformConfig
 
     values = dict(beam_values or {})
     beam_mass = FFRBeamSimulator(FFRBeamConfig(**values)).dynamics.integrals.mass
@@ -282,7 +282,7 @@ def residual_inertia(config=None) -> np.ndarray:
     instantaneous reaction; the retained modes answer dynamically."""
     import scipy.linalg
 
-    from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
 
     cfg = config or FFRBeamConfig()
     model = FFRBeamSimulator(cfg).dynamics.model
@@ -304,9 +304,9 @@ def instantaneous_loop_radius(mass_ratio: float) -> float:
     """Spectral radius of the instantaneous (h -> 0) part of the coupling loop: the held clamp reaction
     -B_res (a_m, alpha) turns into the platform's (a_m, alpha) = T Mp^-1 T^T (F, M_m) one exchange later
     (T: mount point <- O, Mp = M_rb + A about O)."""
-    from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-    from flexfmu.platform_sim import PlatformConfig, mass_matrix
-    from flexfmu.vec3 import skew
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.wec.platform import PlatformConfig, mass_matrix
+    from flexfmu.core.vec3 import skew
 
     beam_mass = FFRBeamSimulator(FFRBeamConfig()).dynamics.integrals.mass
     cfg0 = PlatformConfig()
@@ -321,7 +321,7 @@ def cosim_run(system, h: float, scheme: str, n_steps: int = 200, kick: float = 1
     on the beam's tip for the first step, then free.  Returns (peak |payload force| over the first and
     the last fifth of the run, the error message if a component reported divergence, else None).
     (About 20 ms per step: FFRBeam recomputes its step map whenever the base's angular velocity changes.)"""
-    from flexfmu.cosim import Master
+    from flexfmu.cosim.masters import Master
 
     master = Master(system, "library")
     master.initialize()
@@ -347,7 +347,7 @@ def cosim_run(system, h: float, scheme: str, n_steps: int = 200, kick: float = 1
 
 
 def study_cosim(figures: Path, n_ratio: int = 19, n_step: int = 17) -> dict:
-    from flexfmu.cosim import STABILITY_TOLERANCE, spectral_radius
+    from flexfmu.cosim.masters import STABILITY_TOLERANCE, spectral_radius
 
     ratios = np.geomspace(1e-3, 30.0, n_ratio)
     steps = np.geomspace(1e-5, 1e-1, n_step)
@@ -361,7 +361,7 @@ def study_cosim(figures: Path, n_ratio: int = 19, n_step: int = 17) -> dict:
                 rho[s][i, j] = spectral_radius(system, float(h), s)
     elapsed = time.perf_counter() - t0
     mu_rigid = 1.0 / instantaneous_loop_radius(1.0)          # the loop radius is proportional to mu
-    from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
 
     sim = FFRBeamSimulator(FFRBeamConfig())
     print(f"\n== 3. Co-simulation coupling: FFRBeam (spatial_double_L, XFF, 6 modes "

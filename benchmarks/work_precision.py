@@ -13,7 +13,7 @@ reference of that sweep (docs/work_precision.md states each reference and why it
 
 CPU times are time.process_time of this process, best of a few repeats (shared machine: +-20 %); every
 ratio is from one run.  --quick: shorter records, fewer and smaller sweep points, one repeat (~2 min).
-Methods that other modules add later (a reframe scheme in flexfmu.reframe.SCHEMES, the FFR ``integrator``
+Methods that other modules add later (a reframe scheme in flexfmu.reframe.integrator.SCHEMES, the FFR ``integrator``
 field, the automatic model choice ``n_modes=-1`` / ``n_flexible_modes=-1`` with ``f_max`` / ``tolerance``)
 are detected at run time and included when present.
 """
@@ -130,7 +130,7 @@ def _refused(case: Case, panel: str, method: str, value, label: str, exc: Except
 
 # --------------------------------------------------------------------------- optional features
 def reframe_schemes() -> tuple:
-    from flexfmu.reframe import SCHEMES
+    from flexfmu.reframe.integrator import SCHEMES
     return tuple(SCHEMES)
 
 
@@ -140,17 +140,17 @@ def _fields(cls) -> set:
 
 def ffr_integrators() -> tuple:
     """FFR integrators available: ("exact",) today; + "rk4" when FFRBeamConfig has an ``integrator`` field."""
-    from flexfmu.ffr_beam_sim import FFRBeamConfig
+    from flexfmu.ffr.simulator import FFRBeamConfig
     return ("exact", "rk4") if "integrator" in _fields(FFRBeamConfig) else ("exact",)
 
 
 def ffr_auto_available() -> bool:
-    from flexfmu.ffr_beam_sim import FFRBeamConfig
+    from flexfmu.ffr.simulator import FFRBeamConfig
     return {"f_max", "tolerance"} <= _fields(FFRBeamConfig)
 
 
 def reframe_auto_available() -> bool:
-    from flexfmu.reframe_body_sim import ReframeBodyConfig
+    from flexfmu.reframe.simulator import ReframeBodyConfig
     return {"f_max", "tolerance"} <= _fields(ReframeBodyConfig)
 
 
@@ -184,7 +184,7 @@ def run_reframe(integ, t_end, dt, load, node, out_period, omega0=(0.0, 0.0, 0.0)
 
 def run_baseline(baseline, t_end, dt, load, node, out_period, omega0=(0.0, 0.0, 0.0)):
     """The same with the fixed-frame linear baseline (its elastic part Phi q_F, linearised about the start)."""
-    from flexfmu.modal_basis import N_RIGID
+    from flexfmu.linalg.modal_basis import N_RIGID
     every = int(round(out_period / dt))
     r = baseline.run(t_end, dt, load, omega0=omega0, every=every)
     return body_deflection(baseline, r.eta[:, N_RIGID:baseline.data.n_modes], node)
@@ -220,8 +220,8 @@ class BodyCase:
 
 def _setup_body(bc: BodyCase, mesh, n_modes, scheme):
     """(structure, basis, integrator or baseline, set-up CPU s) for one model."""
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.reframe import FixedFrameBaseline, ReframeIntegrator
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.integrator import FixedFrameBaseline, ReframeIntegrator
     t0 = time.process_time()
     structure = bc.build(mesh)
     basis = modal_basis(structure, n_modes, bc.damping)
@@ -327,8 +327,8 @@ def sweep_body(bc: BodyCase, repeat: int, exudyn=None, exudyn_ref=None) -> Case:
 def _body_automatic(bc: BodyCase, u_ref, repeat) -> None:
     """The ReframeBody simulator's own choice (n_flexible_modes = -1, f_max, tolerance) on the base mesh, run
     with the integrator the simulator built."""
-    from flexfmu.io import save_structure
-    from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+    from flexfmu.core.io import save_structure
+    from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
     with tempfile.TemporaryDirectory() as tmp:
         structure = bc.build(bc.base_mesh)
         load_point = np.asarray(structure.nodes)[bc.case_load_node(structure)]
@@ -360,8 +360,8 @@ EXUDYN_FAR = slice(7, 10)
 
 
 def plate_case(quick: bool) -> BodyCase:
-    from flexfmu.plate import LOAD_POINT, paper_plate
-    from flexfmu.reframe import PointLoad, half_sine_pulse
+    from flexfmu.reframe.plate import LOAD_POINT, paper_plate
+    from flexfmu.reframe.integrator import PointLoad, half_sine_pulse
     force = 50.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)
     t_end = 0.2 if quick else 0.3
     case = Case("plate", "reframe body: the paper's plate",
@@ -385,8 +385,8 @@ ROD_FORCE = 10.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)     # N, global, p
 
 
 def rod_case(quick: bool) -> BodyCase:
-    from flexfmu.models import default_load_point, load_model
-    from flexfmu.reframe import PointLoad, half_sine_pulse
+    from flexfmu.reframe.models import default_load_point, load_model
+    from flexfmu.reframe.integrator import PointLoad, half_sine_pulse
     t_end = 0.2
     case = Case("rod", "reframe body: free-free bent rod",
                 "beam:spatial_double_L (free-free), 5 % modal damping, 10 N peak along global [1, 0, 1]/√2 as a "
@@ -469,7 +469,7 @@ class FFRCase:
 
 
 def _ffr_config(eps, n_modes, integrator="exact", **extra):
-    from flexfmu.ffr_beam_sim import FFRBeamConfig
+    from flexfmu.ffr.simulator import FFRBeamConfig
     kw = dict(boundary="XFF", elements_per_segment=eps, n_modes=n_modes, damping_ratio=0.01)
     if "integrator" in _fields(FFRBeamConfig):
         kw["integrator"] = integrator
@@ -480,7 +480,7 @@ def _ffr_config(eps, n_modes, integrator="exact", **extra):
 def run_ffr(config, dt, t_end, inputs, out_period) -> np.ndarray:
     """Tip elastic displacement (body frame, m) every out_period s through FFRBeamSimulator, the inputs held
     over each step at their mid-step value (second order for smooth inputs)."""
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamSimulator
     sim = FFRBeamSimulator(config)
     every = int(round(out_period / dt))
     n = int(round(t_end / dt))
@@ -500,8 +500,8 @@ def ffr_reference(config, t_end, inputs, out_period, breakpoints, rtol=1e-11) ->
     integration independent of the FFR step (matrix exponential / RK4 with held inputs)."""
     from scipy.integrate import solve_ivp
 
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
-    from flexfmu.ffr_dynamics import BaseMotion, ModalState
+    from flexfmu.ffr.simulator import FFRBeamSimulator
+    from flexfmu.ffr.dynamics import BaseMotion, ModalState
     dyn = FFRBeamSimulator(config).dynamics
     m = dyn.m
     zero = np.zeros(m)
@@ -552,7 +552,7 @@ def hammer_analytic(config, t_end, out_period) -> np.ndarray:
     load of HAMMER_FORCE at load_s), free vibration after.  Solution: the steady sinusoidal particular part
     Im(g e^{i W t} / (w^2 - W^2 + 2 i zeta w W)) plus the damped free response that makes eta(0) = eta'(0) = 0;
     from T on, the free response of the state at T.  Every mode of the model can be kept (no time step)."""
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamSimulator
     dyn = FFRBeamSimulator(config).dynamics
     w = np.sqrt(dyn.stiffness)
     zeta = dyn.damping / (2.0 * w)
@@ -583,7 +583,7 @@ def hammer_analytic(config, t_end, out_period) -> np.ndarray:
 
 def _ffr_point(fc: FFRCase, panel, method, value, label, config, dt, u_ref, repeat, automatic=False, note="",
                setup=None):
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamSimulator
     try:
         if setup is None:
             t0 = time.process_time()
@@ -598,7 +598,7 @@ def _ffr_point(fc: FFRCase, panel, method, value, label, config, dt, u_ref, repe
 
 
 def ffr_free_dofs(eps: int) -> int:
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
+    from flexfmu.ffr.simulator import FFRBeamSimulator
     return FFRBeamSimulator(_ffr_config(eps, 1)).dynamics.model.n_free
 
 
@@ -611,7 +611,7 @@ def _ffr_ref(fc: FFRCase, eps: int, n_modes) -> np.ndarray:
 
 
 def sweep_ffr(fc: FFRCase, repeat: int) -> Case:
-    from flexfmu.ffr_beam_sim import FFRBeamConfig
+    from flexfmu.ffr.simulator import FFRBeamConfig
     integrators = ffr_integrators()
     name = {"exact": "FFR modal, exact (expm)", "rk4": "FFR modal, RK4"}
     # ---- time step
@@ -631,7 +631,7 @@ def sweep_ffr(fc: FFRCase, repeat: int) -> Case:
             _ffr_point(fc, "modes", "FFR modal, exact + static correction", n, str(n),
                        _ffr_config(fc.base_eps, n, "exact", static_correction=1), fc.modes_dt, u_ref, repeat)
     if ffr_auto_available():
-        from flexfmu.ffr_beam_sim import FFRBeamSimulator
+        from flexfmu.ffr.simulator import FFRBeamSimulator
         for integ in integrators:
             config = _ffr_config(0, -1, integ, f_max=fc.f_max, tolerance=fc.tolerance)
             try:
@@ -869,8 +869,8 @@ def machine() -> str:
 # --------------------------------------------------------------------------- driver
 def _warm_up() -> None:
     """Compile the numba kernels and fill import caches before anything is timed."""
-    from flexfmu.models import load_model
-    from flexfmu.reframe import ReframeIntegrator
+    from flexfmu.reframe.models import load_model
+    from flexfmu.reframe.integrator import ReframeIntegrator
     rod = load_model("beam:spatial_double_L", elements_per_segment=2)
     for scheme in reframe_schemes():
         try:

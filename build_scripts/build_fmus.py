@@ -19,7 +19,6 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 ROOT = Path(__file__).resolve().parents[1]
-FMU_SOURCES = ROOT / "fmu_src"
 PACKAGE = ROOT / "model" / "flexfmu"
 
 # SI base-unit exponents of every unit used.
@@ -30,24 +29,10 @@ UNITS = {
 }
 
 
-def _fmus():
-    """(model name, slave script, variable info, default experiment) of each FMU."""
+def _registry():
     sys.path.insert(0, str(ROOT / "model"))
-    from flexfmu import (ffr_beam_sim, hydrostatics_sim, platform_sim, pto_sim, reframe_body_sim,
-                         wave_excitation_sim)
-    return [("FFRBeam", FMU_SOURCES / "FFRBeam.py", ffr_beam_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"}),
-            ("ReframeBody", FMU_SOURCES / "ReframeBody.py", reframe_body_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "1", "stepSize": "1e-3"}),
-            # The wave-energy-converter components (docs/wave_converter.md).
-            ("WaveExcitation", FMU_SOURCES / "WaveExcitation.py", wave_excitation_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
-            ("Hydrostatics", FMU_SOURCES / "Hydrostatics.py", hydrostatics_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
-            ("Platform", FMU_SOURCES / "Platform.py", platform_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}),
-            ("PTO", FMU_SOURCES / "PTO.py", pto_sim.VARIABLE_INFO,
-             {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"})]
+    from flexfmu.fmi import registry
+    return registry
 
 
 def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> bytes:
@@ -107,23 +92,26 @@ def build(out: Path) -> list[Path]:
     from pythonfmu.builder import FmuBuilder
 
     out.mkdir(parents=True, exist_ok=True)
-    fmus = _fmus()
+    registry = _registry()
     from flexfmu import __version__
     from flexfmu.fmi.loader import package_build_id
     runtime = _runtime_module()
     front, bridge = runtime.compile_runtime(runtime.build_folder())
     build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
     built = []
-    for name, script, info, experiment in fmus:
+    for spec in registry.FMUS:
         with tempfile.TemporaryDirectory() as tmp:
+            script = Path(tmp) / "slave" / f"{spec.name}.py"       # generated from the registry
+            script.parent.mkdir()
+            script.write_text(registry.slave_script(spec), encoding="utf-8")
             # Bundle a clean copy of the package (no caches) under the import name flexfmu.
             package = Path(tmp) / "flexfmu"
             shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
             fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
                                             canGetAndSetFMUstate=True, canSerializeFMUstate=True))
-            _rewrite_model_description(fmu, info, experiment)
-            runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": name})
-            target = out / f"{name}.fmu"
+            _rewrite_model_description(fmu, spec.load().VARIABLE_INFO, spec.experiment)
+            runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": spec.name})
+            target = out / f"{spec.name}.fmu"
             shutil.move(str(fmu), target)
         problems = validate_fmu(str(target))
         if problems:

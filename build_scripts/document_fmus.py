@@ -16,9 +16,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / "docs" / "fmu.md"
-#: FMU name -> (library module, config class)
-FMUS = {"FFRBeam": ("flexfmu.ffr_beam_sim", "FFRBeamConfig"),
-        "ReframeBody": ("flexfmu.reframe_body_sim", "ReframeBodyConfig")}
+sys.path.insert(0, str(ROOT / "model"))
+from flexfmu.fmi.registry import FMUS as _ALL  # noqa: E402
+
+#: the FMUs whose variables docs/fmu.md tables: {name: (module, config class)}
+FMUS = {spec.name: (spec.module, spec.config) for spec in _ALL if spec.documented}
 _AXIS = re.compile(r"^(.*)_([xyzw123])$")
 _AXIS_SETS = ("xyz", "wxyz", "123")
 

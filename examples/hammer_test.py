@@ -30,7 +30,7 @@ def hammer_run(fmu: Path, boundary: str, duration: float, damping_ratio: float =
     dt = 1.0 / SAMPLE_RATE
     t = np.arange(0.0, duration + dt / 2, dt)
     pulse = np.where(t < 1e-3, 20.0 * np.sin(np.pi * t / 1e-3), 0.0)   # N, 1 ms half-sine
-    from flexfmu.ffr_beam_sim import INPUT_NAMES
+    from flexfmu.ffr.simulator import INPUT_NAMES
 
     signals = np.zeros(len(t), dtype=[("time", float)] + [(name, float) for name in INPUT_NAMES])   # all inputs
     signals["time"] = t
@@ -54,7 +54,7 @@ def main(argv=None) -> int:
     parser.add_argument("--duration", type=float, default=2.0, help="record length, s (FFT bin = 1/duration)")
     parser.add_argument("--plot", type=Path, default=ROOT / "docs" / "figures" / "hammer_fft.png")
     args = parser.parse_args(argv)
-    from flexfmu.report import paper_columns
+    from flexfmu.ffr.report import paper_columns
 
     runs = {bc: hammer_run(args.fmu, bc, args.duration) for bc in SETUPS}
     for bc, run in runs.items():

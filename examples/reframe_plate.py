@@ -26,7 +26,7 @@ PULSE = 0.01                                               # s, half-sine durati
 def run(fmu: Path, scheme: str, t_end: float, step: float):
     t = np.arange(0.0, t_end + step / 2, step)
     shape = np.where(t < PULSE, np.sin(np.pi * t / PULSE), 0.0)
-    from flexfmu.reframe_body_sim import INPUT_NAMES
+    from flexfmu.reframe.simulator import INPUT_NAMES
 
     signals = np.zeros(len(t), dtype=[("time", float)] + [(name, float) for name in INPUT_NAMES])   # all inputs
     signals["time"] = t
@@ -40,9 +40,9 @@ def run(fmu: Path, scheme: str, t_end: float, step: float):
 def rigid_omega_after_pulse(step: float) -> tuple[np.ndarray, np.ndarray]:
     """omega (body = global at small rotation) and COM velocity after the pulse, rigid body, for the
     force the FMU sees (held over each communication step)."""
-    from flexfmu.modal_basis import mass_properties
-    from flexfmu.models import load_model
-    from flexfmu.plate import LOAD_POINT
+    from flexfmu.linalg.modal_basis import mass_properties
+    from flexfmu.reframe.models import load_model
+    from flexfmu.reframe.plate import LOAD_POINT
 
     props = mass_properties(load_model("paper_plate"))
     t = np.arange(0.0, PULSE, step)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from flexfmu.scene import scene_from_dict
+from flexfmu.ffr.scene import scene_from_dict
 
 STEEL = {"E": 200e9, "nu": 0.29, "rho": 7850.0}
 

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from flexfmu.beam_element import element_dof_rotation, element_rotation, local_mass, local_stiffness
+from flexfmu.ffr.beam_element import element_dof_rotation, element_rotation, local_mass, local_stiffness
 
 AXES = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
 

@@ -12,9 +12,9 @@ import pytest
 
 from flexfmu import cli
 from flexfmu.cli import main
-from flexfmu.modal_basis import modal_basis
-from flexfmu.models import load_model
-from flexfmu.reframe import PointLoad, ReframeIntegrator
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator
 
 MODEL = "beam:spatial_double_L"
 # The ReframeBody FMU's output names (issue 4), written out here rather than imported.

@@ -15,8 +15,8 @@ def test_fmu_variable_tables_are_up_to_date():
 
 
 def test_every_fmu_variable_is_in_its_table():
-    import flexfmu.ffr_beam_sim as ffr
-    import flexfmu.reframe_body_sim as rb
+    import flexfmu.ffr.simulator as ffr
+    import flexfmu.reframe.simulator as rb
     for module, fmu in ((ffr, "FFRBeam"), (rb, "ReframeBody")):
         text = document_fmus.table(fmu)
         for name in (*module.INPUT_NAMES, *module.OUTPUT_NAMES):

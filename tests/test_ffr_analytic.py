@@ -4,9 +4,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from conftest import STEEL, straight_rod
-from flexfmu.assembly import build_beam_model
-from flexfmu.modal import solve_modes
-from flexfmu.scene import load_scene, scene_from_dict
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.linalg.modal import solve_modes
+from flexfmu.ffr.scene import load_scene, scene_from_dict
 
 # beta_n L of the first three bending modes (Blevins, Formulas for Natural Frequency, Table 8-1)
 BETA_L = {
@@ -122,3 +122,14 @@ def test_free_structure_has_six_rigid_body_modes_at_zero():
     f = solve_modes(model.K_free, model.M_free, 8).frequencies_hz
     assert np.all(f[:6] < 1e-4 * f[6])
     assert f[6] > 100.0
+
+
+@pytest.mark.parametrize("n_modes", [1, 3, 6])
+def test_free_structure_asked_only_for_rigid_modes(n_modes):
+    """A free-free structure asked for at most its 6 rigid-body modes: 0 Hz (round-off), converged at once
+    (the shift of the inverted eigenproblem is scaled by the first elastic mode, not by round-off)."""
+    from flexfmu.ffr.report import modal_analysis
+    from flexfmu.ffr.scene import load_scene
+    result = modal_analysis(load_scene("spatial_double_L"), "free", n_modes=n_modes)
+    assert result.converged and result.modes.frequencies_hz.shape == (n_modes,)
+    assert np.all(result.modes.frequencies_hz < 1e-2), result.modes.frequencies_hz   # the first elastic: 148 Hz

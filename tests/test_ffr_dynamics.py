@@ -8,11 +8,11 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from conftest import STEEL, straight_rod
-from flexfmu.assembly import build_beam_model
+from flexfmu.ffr.assembly import build_beam_model
 from flexfmu.errors import ParameterError
-from flexfmu.ffr_dynamics import BaseMotion, FFRBeamDynamics, inertia_integrals
-from flexfmu.modal import solve_modes
-from flexfmu.scene import load_scene, scene_from_dict
+from flexfmu.ffr.dynamics import BaseMotion, FFRBeamDynamics, inertia_integrals
+from flexfmu.linalg.modal import solve_modes
+from flexfmu.ffr.scene import load_scene, scene_from_dict
 
 ZERO = np.zeros(3)
 

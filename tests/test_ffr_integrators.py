@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexfmu.assembly import build_beam_model
+from flexfmu.ffr.assembly import build_beam_model
 from flexfmu.errors import ParameterError
-from flexfmu.ffr_dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics
-from flexfmu.modal import solve_modes
-from flexfmu.scene import load_scene
+from flexfmu.ffr.dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics
+from flexfmu.linalg.modal import solve_modes
+from flexfmu.ffr.scene import load_scene
 
 ZERO = np.zeros(3)
 SPIN = BaseMotion(a0=np.array([0.3, -0.2, 1.0]), omega=np.array([1.5, -0.7, 2.0]), alpha=np.array([3.0, 1.0, -2.0]))
@@ -120,7 +120,7 @@ def test_default_is_exact_and_bad_options_are_refused():
 
 
 def test_spinup_driver_refuses_an_rk4_step_beyond_the_limit():
-    from flexfmu import spinup
+    from flexfmu.studies import spinup
 
     with pytest.raises(ParameterError, match="dt"):
         spinup.run_ffr(t_end=0.5, dt=0.05, geometric_stiffening=True, integrator="rk4")   # limit ~0.013 s

@@ -5,9 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexfmu.assembly import boundary_matrix, build_beam_model
-from flexfmu.report import format_table, modal_analysis, paper_columns, paper_tables
-from flexfmu.scene import load_scene
+from flexfmu.ffr.assembly import boundary_matrix, build_beam_model
+from flexfmu.ffr.report import format_table, modal_analysis, paper_columns, paper_tables
+from flexfmu.ffr.scene import load_scene
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "reference" / "paper_tables.json"
 

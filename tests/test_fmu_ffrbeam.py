@@ -7,9 +7,9 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 from scipy.signal import find_peaks
 
-from flexfmu.assembly import build_beam_model
-from flexfmu.kinematics import point_shape
-from flexfmu.scene import load_scene
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.kinematics import point_shape
+from flexfmu.ffr.scene import load_scene
 
 
 @pytest.fixture

@@ -3,8 +3,8 @@ OK) with its numbers, and its outputs are the library's."""
 import numpy as np
 import pytest
 
-from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-from flexfmu.ffr_dynamics import BaseMotion
+from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+from flexfmu.ffr.dynamics import BaseMotion
 
 OUTPUTS = ("tip_u_x", "tip_u_y", "tip_u_z", "sensor_u_x", "sensor_u_z", "sensor_a_x", "reaction_M_y",
            "elastic_energy")

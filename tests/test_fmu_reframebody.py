@@ -1,12 +1,12 @@
-"""ReframeBody.fmu driven through fmpy against the library (flexfmu.reframe) and Newton's law."""
+"""ReframeBody.fmu driven through fmpy against the library (flexfmu.reframe.integrator) and Newton's law."""
 import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 
-from flexfmu.modal_basis import modal_basis
-from flexfmu.models import load_model
-from flexfmu.plate import LOAD_POINT
-from flexfmu.reframe import PointLoad, ReframeIntegrator, constant_load
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.plate import LOAD_POINT
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, constant_load
 
 
 @pytest.fixture
@@ -111,7 +111,7 @@ def test_exponential_split_does_not_depend_on_when_outputs_are_read():
     """Scheme exponential, automatic internal steps: the split uses the rates of a state with the inputs its
     step held (bounded for the input change) whether or not output_vector was called; a spinning rod whose
     split changes from step to step ends bit-identical either way."""
-    from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+    from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
     def run(read_every):
         sim = ReframeBodySimulator(ReframeBodyConfig(**_SPINNING_ROD))
@@ -135,7 +135,7 @@ def test_outputs_computed_on_read_equal_those_after_each_step(body):
     every read pattern — all outputs each step, none for a while, one value, the costly one alone, after
     new inputs were set but before the next step, after a rollback — gives the library's outputs of the
     state the step reached with the inputs that step held."""
-    from flexfmu.reframe_body_sim import OUTPUT_NAMES, ReframeBodyConfig, ReframeBodySimulator
+    from flexfmu.reframe.simulator import OUTPUT_NAMES, ReframeBodyConfig, ReframeBodySimulator
 
     lib = ReframeBodySimulator(ReframeBodyConfig(**_SPINNING_ROD))
     expected = []

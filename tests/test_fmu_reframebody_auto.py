@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from flexfmu.models import load_model
-from flexfmu.reframe import PointLoad, ReframeIntegrator
-from flexfmu.model_size import load_point_rows, modal_compliance
-from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator
+from flexfmu.sizing.model_size import load_point_rows, modal_compliance
+from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
 BEAM = "beam:spatial_double_L"            # free-free bent rod; flexible modes 148, 266, 280, 980, ... Hz
 TIP = (0.14, 0.15, 0.16)                  # its free end (node 12 with 8 elements per segment: the last node)
@@ -136,9 +136,9 @@ def test_auto_model_response_to_a_short_pulse_meets_the_tolerance():
     the other end over 40 ms against the same rod with ALL its flexible modes (exponential scheme, exact in the
     modal part, same step: the difference is the truncation; the integrator itself is checked in
     tests/test_reframe_exponential.py).  The modes up to f_max alone miss the tolerance, so the test can fail."""
-    from flexfmu.models import default_load_point
-    from flexfmu.reframe import half_sine_pulse
-    from flexfmu.model_size import auto_basis
+    from flexfmu.reframe.models import default_load_point
+    from flexfmu.reframe.integrator import half_sine_pulse
+    from flexfmu.sizing.model_size import auto_basis
 
     structure = load_model(BEAM)
     tip = default_load_point(structure)

@@ -1,4 +1,4 @@
-""".npz structural model files (flexfmu.io): round trip, exact keys, and every rejected input."""
+""".npz structural model files (flexfmu.core.io): round trip, exact keys, and every rejected input."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,9 +6,9 @@ import pytest
 import scipy.sparse as sp
 
 from flexfmu.errors import ParameterError
-from flexfmu.io import REQUIRED_KEYS, load_structure, save_structure, validate_structure
-from flexfmu.plate import paper_plate
-from flexfmu.structure import Structure
+from flexfmu.core.io import REQUIRED_KEYS, load_structure, save_structure, validate_structure
+from flexfmu.reframe.plate import paper_plate
+from flexfmu.core.structure import Structure
 
 
 def six_dof_structure(n_nodes: int = 4) -> Structure:

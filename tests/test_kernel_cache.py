@@ -4,21 +4,23 @@ import shutil
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
-from flexfmu import _reframe_kernels
+import flexfmu
+from flexfmu.reframe import kernels as _reframe_kernels
 
 RUN = textwrap.dedent("""
     import json, sys
     sys.path.insert(0, sys.argv[1])
     import flexfmu
     assert flexfmu.__file__.startswith(sys.argv[1]), flexfmu.__file__
-    from flexfmu.assembly import build_beam_model
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.reframe import PointLoad, ReframeIntegrator, constant_load
-    from flexfmu.scene import load_scene
-    from flexfmu import _reframe_kernels as k
+    from flexfmu.ffr.assembly import build_beam_model
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, constant_load
+    from flexfmu.ffr.scene import load_scene
+    from flexfmu.reframe import kernels as k
     beam = build_beam_model(load_scene("spatial_double_L"), "free", 2).structure()
     integ = ReframeIntegrator(beam, modal_basis(beam, 2))
     loads = integ.prepare_loads(PointLoad(0, constant_load([1.0, 0.0, 0.0])))
@@ -36,7 +38,7 @@ def test_relocated_copy_of_the_package_hits_the_kernel_cache(tmp_path):
     results = []
     for copy in ("first", "second"):   # two extraction folders, as two FMU instantiations would make
         root = tmp_path / copy
-        shutil.copytree(_reframe_kernels.__file__.rsplit("/", 1)[0], root / "flexfmu",
+        shutil.copytree(Path(flexfmu.__file__).parent, root / "flexfmu",
                         ignore=shutil.ignore_patterns("__pycache__"))
         out = subprocess.run([sys.executable, "-c", RUN, str(root)], capture_output=True, text=True, timeout=600)
         assert out.returncode == 0, out.stderr

@@ -5,9 +5,9 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from conftest import STEEL, straight_rod
-from flexfmu.assembly import build_beam_model
-from flexfmu.kinematics import FramePose, point_motion, point_shape
-from flexfmu.scene import load_scene
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.kinematics import FramePose, point_motion, point_shape
+from flexfmu.ffr.scene import load_scene
 
 
 def _skew(v):

@@ -1,4 +1,4 @@
-"""Rigid-body modes, mass properties and the modal basis (flexfmu.modal_basis)."""
+"""Rigid-body modes, mass properties and the modal basis (flexfmu.linalg.modal_basis)."""
 from __future__ import annotations
 
 from fractions import Fraction
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-import flexfmu.modal_basis as mbm
+import flexfmu.linalg.modal_basis as mbm
 from flexfmu.errors import ParameterError
-from flexfmu.io import validate_structure
-from flexfmu.modal_basis import mass_properties, modal_basis, rigid_body_modes
-from flexfmu.plate import paper_plate
-from flexfmu.structure import Structure
+from flexfmu.core.io import validate_structure
+from flexfmu.linalg.modal_basis import mass_properties, modal_basis, rigid_body_modes
+from flexfmu.reframe.plate import paper_plate
+from flexfmu.core.structure import Structure
 
 
 def _skew(r):

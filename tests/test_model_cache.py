@@ -1,14 +1,14 @@
-"""On-disk cache of models and modal bases (flexfmu.cache): hits equal fresh results, changed inputs
+"""On-disk cache of models and modal bases (flexfmu.core.cache): hits equal fresh results, changed inputs
 miss, bad files and failed writes never leak into results."""
 import numpy as np
 import pytest
 
-from flexfmu import cache
+from flexfmu.core import cache
 from flexfmu.errors import ParameterError
-from flexfmu.modal_basis import modal_basis
-from flexfmu.models import load_model
-from flexfmu.plate import paper_plate
-from flexfmu.structure import Structure
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.plate import paper_plate
+from flexfmu.core.structure import Structure
 
 DIVISIONS = (10, 2, 1)          # 945 DOFs: the sparse path, a fraction of a second
 

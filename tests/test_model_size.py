@@ -1,4 +1,4 @@
-"""Automatic model size (flexfmu.model_size) and the FFRBeam simulator's use of it: the mesh and mode
+"""Automatic model size (flexfmu.sizing.model_size) and the FFRBeam simulator's use of it: the mesh and mode
 choice against converged and analytic frequencies, the static correction against full static solves and
 closed forms, and the errors for bad input."""
 import json
@@ -9,14 +9,14 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from conftest import STEEL
-from flexfmu.assembly import build_beam_model
+from flexfmu.ffr.assembly import build_beam_model
 from flexfmu.errors import ParameterError
-from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-from flexfmu.ffr_dynamics import BaseMotion
-from flexfmu.modal import solve_modes
-from flexfmu.model_size import (SAFETY_FACTOR, check_band, choose_elements_per_segment, choose_n_modes,
+from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+from flexfmu.ffr.dynamics import BaseMotion
+from flexfmu.linalg.modal import solve_modes
+from flexfmu.sizing.model_size import (SAFETY_FACTOR, check_band, choose_elements_per_segment, choose_n_modes,
                                 residual_flexibility, truncation_errors)
-from flexfmu.scene import load_scene, scene_from_dict
+from flexfmu.ffr.scene import load_scene, scene_from_dict
 
 DOUBLE_L_EXTRA = (0.45, 0.04)      # the FFRBeam defaults' load (tip) and sensor points get nodes
 
@@ -394,8 +394,8 @@ def test_simulator_maps_equal_term_by_term_formulas(fields):
     """Random held inputs with base rotation: the simulator's cached maps (static correction as affine output
     terms, a0 in the map key with stiffening, RK4 sub-steps composed by repeated squaring) give the state of
     FFRBeamDynamics.step (sub-stepped by hand for RK4) and the outputs of the term-by-term formulas."""
-    from flexfmu.ffr_beam_sim import INPUT_NAMES
-    from flexfmu.ffr_dynamics import BaseMotion
+    from flexfmu.ffr.simulator import INPUT_NAMES
+    from flexfmu.ffr.dynamics import BaseMotion
 
     sim = FFRBeamSimulator(FFRBeamConfig(**fields))
     rng = np.random.default_rng(5)

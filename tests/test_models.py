@@ -1,4 +1,4 @@
-"""Model specifications (flexfmu.models): paper_plate, beam:<scene>, .npz, default points, bad specs."""
+"""Model specifications (flexfmu.reframe.models): paper_plate, beam:<scene>, .npz, default points, bad specs."""
 from __future__ import annotations
 
 import json
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from flexfmu.errors import ParameterError
-from flexfmu.io import save_structure
-from flexfmu.modal_basis import modal_basis
-from flexfmu.models import MODEL_ALLOWED, default_load_point, default_output_point, load_model
-from flexfmu.plate import CORNERS, DEFAULT_DIVISIONS, LOAD_POINT
+from flexfmu.core.io import save_structure
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.models import MODEL_ALLOWED, default_load_point, default_output_point, load_model
+from flexfmu.reframe.plate import CORNERS, DEFAULT_DIVISIONS, LOAD_POINT
 
 ROD_JSON = {
     "schema_version": 1, "name": "json_rod", "points": [[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.3, 0.2, 0.0]],

@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexfmu import _reframe_kernels as K
-from flexfmu.modal_basis import N_RIGID, modal_basis
-from flexfmu.models import load_model
-from flexfmu.plate import paper_plate
-from flexfmu.reframe import PointLoad, ReframeIntegrator, ReframeState, half_sine_pulse
+from flexfmu.reframe import kernels as K
+from flexfmu.linalg.modal_basis import N_RIGID, modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.plate import paper_plate
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, ReframeState, half_sine_pulse
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -267,10 +267,10 @@ def test_kernel_states_reuse_their_flat_array_only_while_it_is_theirs(beam):
 
 _FALLBACK_SCRIPT = """
 import json, numpy as np
-from flexfmu import _reframe_kernels as K
-from flexfmu.models import load_model
-from flexfmu.modal_basis import modal_basis
-from flexfmu.reframe import ReframeIntegrator, PointLoad, half_sine_pulse
+from flexfmu.reframe import kernels as K
+from flexfmu.reframe.models import load_model
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.integrator import ReframeIntegrator, PointLoad, half_sine_pulse
 beam = load_model("beam:spatial_double_L", elements_per_segment=4)
 integ = ReframeIntegrator(beam, modal_basis(beam, 3))
 integ.set_initial(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
@@ -296,8 +296,8 @@ def test_numpy_fallback_gives_the_same_numbers():
 
 # --------------------------------------------------------------------------- FFRBeam maps
 def test_ffrbeam_fast_maps_equal_term_by_term_formulas():
-    from flexfmu.ffr_beam_sim import INPUT_NAMES, FFRBeamConfig, FFRBeamSimulator
-    from flexfmu.ffr_dynamics import BaseMotion
+    from flexfmu.ffr.simulator import INPUT_NAMES, FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.ffr.dynamics import BaseMotion
 
     sim = FFRBeamSimulator(FFRBeamConfig(n_modes=6))
     rng = np.random.default_rng(9)

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from flexfmu.errors import ParameterError
-from flexfmu.modal_basis import mass_properties, modal_basis
-from flexfmu.plate import (CORNERS, DEFAULT_DIVISIONS, PAPER_FREQUENCIES_HZ, plate_fe,
+from flexfmu.linalg.modal_basis import mass_properties, modal_basis
+from flexfmu.reframe.plate import (CORNERS, DEFAULT_DIVISIONS, PAPER_FREQUENCIES_HZ, plate_fe,
                            paper_plate)
 
 PAPER = json.loads((Path(__file__).resolve().parents[1] / "model" / "flexfmu" / "data"
@@ -186,7 +186,7 @@ def test_vectorised_stiffness_equals_scikit_fem_linear_elasticity():
     from skfem import asm
     from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-    from flexfmu.plate import POISSON, YOUNGS_MODULUS, _elasticity_stiffness, plate_fe
+    from flexfmu.reframe.plate import POISSON, YOUNGS_MODULUS, _elasticity_stiffness, plate_fe
 
     _, basis, _, _ = plate_fe((6, 2, 2))
     lam, mu = lame_parameters(YOUNGS_MODULUS, POISSON)
@@ -200,7 +200,7 @@ def test_vectorised_stiffness_in_element_blocks(monkeypatch):
     """The element blocks of the vectorised assembly add up to the one-block matrix."""
     from skfem.models.elasticity import lame_parameters
 
-    from flexfmu import plate
+    from flexfmu.reframe import plate
 
     _, basis, _, _ = plate.plate_fe((6, 2, 2))
     lam, mu = lame_parameters(plate.YOUNGS_MODULUS, plate.POISSON)

@@ -1,4 +1,4 @@
-"""Reframe integrator (issue 3, items 5-9): references never come from flexfmu.reframe.
+"""Reframe integrator (issue 3, items 5-9): references never come from flexfmu.reframe.integrator.
 
 * rigid references: Newton + Euler equations with quaternions, scipy solve_ivp (DOP853, rtol 1e-12),
   mass / centre of mass / inertia computed here from M and the node positions;
@@ -14,11 +14,11 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from flexfmu.assembly import build_beam_model
+from flexfmu.ffr.assembly import build_beam_model
 from flexfmu.errors import ParameterError
-from flexfmu.modal_basis import modal_basis
-from flexfmu.reframe import FixedFrameBaseline, PointLoad, ReframeIntegrator, half_sine_pulse
-from flexfmu.scene import load_scene
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.integrator import FixedFrameBaseline, PointLoad, ReframeIntegrator, half_sine_pulse
+from flexfmu.ffr.scene import load_scene
 
 OMEGA0 = np.array([5.0, 2.0, 8.0])
 DIR = np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)      # the paper's load direction, global
@@ -34,7 +34,7 @@ def beam():
 @pytest.fixture(scope="module")
 def plate():
     """The paper's plate on a coarse mesh (1845 DOFs; first four flexible modes within 1% of Table 1)."""
-    from flexfmu.plate import paper_plate
+    from flexfmu.reframe.plate import paper_plate
     return paper_plate((20, 2, 1))
 
 
@@ -119,7 +119,7 @@ def invariants(integ, structure, state):
 def test_rigid_limit_plate_paper_load(plate):
     """Paper's load: 50 N along global [1,0,1]/sqrt2 at (-0.5, 0, 0.01) m, a 0.01 s half-sine pulse;
     plate with four flexible modes: dummy-body omega vs the rigid plate over 1 s."""
-    from flexfmu.plate import LOAD_POINT
+    from flexfmu.reframe.plate import LOAD_POINT
     F = 50.0 * DIR
     force = half_sine_pulse(F, 0.01)
     mb = modal_basis(plate, 4)

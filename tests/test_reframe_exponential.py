@@ -13,12 +13,12 @@ import math
 import numpy as np
 import pytest
 
-from flexfmu import _reframe_kernels as K
+from flexfmu.reframe import kernels as K
 from flexfmu.errors import ParameterError
-from flexfmu.modal_basis import modal_basis
-from flexfmu.models import load_model
-from flexfmu.plate import paper_plate
-from flexfmu.reframe import SCHEMES, PointLoad, ReframeIntegrator, exponential_coefficients, half_sine_pulse
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.plate import paper_plate
+from flexfmu.reframe.integrator import SCHEMES, PointLoad, ReframeIntegrator, exponential_coefficients, half_sine_pulse
 from test_reframe import invariants, mass_properties
 
 OMEGA0 = np.array([5.0, 2.0, 8.0])
@@ -314,10 +314,10 @@ def test_geometric_stiffness_bad_input(beam, G, scheme, fragment):
 
 _FALLBACK_SCRIPT = """
 import json, numpy as np
-from flexfmu import _reframe_kernels as K
-from flexfmu.models import load_model
-from flexfmu.modal_basis import modal_basis
-from flexfmu.reframe import ReframeIntegrator, PointLoad, half_sine_pulse
+from flexfmu.reframe import kernels as K
+from flexfmu.reframe.models import load_model
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.integrator import ReframeIntegrator, PointLoad, half_sine_pulse
 beam = load_model("beam:spatial_double_L", elements_per_segment=4)
 G = 1e3 * np.random.default_rng(5).standard_normal((3, 3, 3, 3))
 integ = ReframeIntegrator(beam, modal_basis(beam, 3), scheme="exponential", geometric_stiffness=G)

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from flexfmu.modal_basis import modal_basis
-from flexfmu.plate import LOAD_POINT, paper_plate
-from flexfmu.reframe import PointLoad, ReframeIntegrator, half_sine_pulse
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.plate import LOAD_POINT, paper_plate
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, half_sine_pulse
 
 REFERENCE = Path(__file__).parent / "reference" / "exudyn_plate" / "trajectory.csv"
 FORCE = 50.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)

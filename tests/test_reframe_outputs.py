@@ -1,11 +1,11 @@
 """Outputs of the reframe integrator that the FMU and the CLI share."""
 import numpy as np
 
-from flexfmu.assembly import build_beam_model
-from flexfmu.modal_basis import modal_basis
-from flexfmu.reframe import PointLoad, ReframeIntegrator, constant_load
-from flexfmu.reframe_body_sim import OUTPUT_NAMES, output_values
-from flexfmu.scene import load_scene
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, constant_load
+from flexfmu.reframe.simulator import OUTPUT_NAMES, output_values
+from flexfmu.ffr.scene import load_scene
 
 
 def test_frame_origin_velocity_is_the_derivative_of_frame_origin():

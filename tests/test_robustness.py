@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 
 from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, StepRejected
-from flexfmu.ffr_beam_sim import INPUT_NAMES as FFR_INPUTS
-from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-from flexfmu.hydrostatics_sim import HydrostaticsConfig, HydrostaticsSimulator
-from flexfmu.models import load_model
-from flexfmu.platform_sim import PlatformConfig, PlatformSimulator
-from flexfmu.pto_sim import PTOConfig, PTOSimulator
-from flexfmu.reframe_body_sim import INPUT_NAMES as RB_INPUTS
-from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
-from flexfmu.scene import load_scene
-from flexfmu.wave_excitation_sim import WaveExcitationConfig, WaveExcitationSimulator
+from flexfmu.ffr.simulator import INPUT_NAMES as FFR_INPUTS
+from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+from flexfmu.wec.hydrostatics import HydrostaticsConfig, HydrostaticsSimulator
+from flexfmu.reframe.models import load_model
+from flexfmu.wec.platform import PlatformConfig, PlatformSimulator
+from flexfmu.wec.pto import PTOConfig, PTOSimulator
+from flexfmu.reframe.simulator import INPUT_NAMES as RB_INPUTS
+from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
+from flexfmu.ffr.scene import load_scene
+from flexfmu.wec.wave_excitation import WaveExcitationConfig, WaveExcitationSimulator
 
 # the extreme values below overflow on purpose: numpy's warnings on the way to the named error are expected
 pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
@@ -66,7 +66,7 @@ def test_ffr_auto_modes_with_f_max_above_the_given_mesh_keep_every_mode():
     """n_modes = -1 on a given mesh whose every mode lies below f_max: the complete basis is kept (docs: at most
     the free DOFs), logged as such (no truncation error, the mesh does not resolve f_max) instead of looping."""
     r = bounded("""
-        from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
+        from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
         def result():
             sim = FFRBeamSimulator(FFRBeamConfig(n_modes=-1, f_max=1e6))
             return [sim.model_choice.n_modes, sim.model_choice.n_free, sim.messages]
@@ -83,7 +83,7 @@ def test_ffr_auto_modes_with_f_max_above_the_given_mesh_keep_every_mode():
 @pytest.mark.parametrize("f_max", [3e5, 1e6, 1e8])
 def test_ffr_auto_mesh_far_beyond_what_512_elements_resolve_is_refused_quickly(f_max):
     r = bounded(f"""
-        from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
+        from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
         def result():
             FFRBeamSimulator(FFRBeamConfig(n_modes=-1, elements_per_segment=0, f_max={f_max!r}))
     """)
@@ -94,7 +94,7 @@ def test_ffr_auto_mesh_far_beyond_what_512_elements_resolve_is_refused_quickly(f
 
 def test_ffr_auto_mesh_with_more_modes_than_it_resolves_names_n_modes():
     r = bounded("""
-        from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
+        from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
         def result():
             FFRBeamSimulator(FFRBeamConfig(n_modes=3000, elements_per_segment=0))
     """)
@@ -105,7 +105,7 @@ def test_ffr_auto_mesh_with_more_modes_than_it_resolves_names_n_modes():
 def test_unreachable_tolerance_states_a_range_that_exists():
     """The refusal's allowed range is one the parameters can take: no "a tolerance above 2" (its range is
     1e-6 .. 0.1)."""
-    from flexfmu.model_size import TOLERANCE_RANGE, choose_elements_per_segment
+    from flexfmu.sizing.model_size import TOLERANCE_RANGE, choose_elements_per_segment
     scene = load_scene("spatial_double_L")
     for f_max, tolerance, max_el in ((3e5, 1e-3, 512), (3e4, 1e-3, 4), (300.0, 1e-5, 2), (2e4, 1e-6, 512)):
         with pytest.raises(ParameterError) as exc:
@@ -125,8 +125,8 @@ def test_reframe_auto_modes_with_f_max_above_every_mode_log_no_truncation_error(
 
 def test_reframe_auto_modes_refuse_a_band_beyond_the_mode_cap_naming_f_max():
     """More flexible modes below f_max than n_flexible_modes = -1 computes (200): refused, not silently cut."""
-    from flexfmu.assembly import build_beam_model
-    from flexfmu.model_size import auto_basis
+    from flexfmu.ffr.assembly import build_beam_model
+    from flexfmu.sizing.model_size import auto_basis
     structure = build_beam_model(load_scene("spatial_double_L"), "free", 16).structure()     # 288 flexible modes
     with pytest.raises(ParameterError) as exc:
         auto_basis(structure, 1e6, 1e-3, 0.05, 10, 0)
@@ -137,7 +137,7 @@ def test_reframe_auto_modes_refuse_a_band_beyond_the_mode_cap_naming_f_max():
 @pytest.mark.parametrize("force", [1e20, 1e300])
 def test_reframe_huge_force_is_refused_naming_it_before_stepping(force):
     r = bounded(f"""
-        from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+        from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
         sim = ReframeBodySimulator(ReframeBodyConfig())
         def result():
             sim.set_inputs(F_x={force!r})
@@ -150,7 +150,7 @@ def test_reframe_huge_force_is_refused_naming_it_before_stepping(force):
 @pytest.mark.parametrize("omega", [1e9, 1e300])
 def test_reframe_implausible_initial_spin_is_refused_at_construction(omega):
     r = bounded(f"""
-        from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+        from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
         def result():
             sim = ReframeBodySimulator(ReframeBodyConfig(omega0_1={omega!r}))
             sim.step(0.01)
@@ -163,7 +163,7 @@ def test_reframe_long_communication_step_is_rejected_and_a_smaller_one_succeeds(
     """RK4 with 60 flexible modes: a 10 s step needs ~1e6 internal steps (~40 s of CPU before the cap):
     StepRejected, counted before stepping, the state of the step's start kept; the suggested step runs."""
     r = bounded(f"""
-        from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+        from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
         sim = ReframeBodySimulator(ReframeBodyConfig(model="{BEAM}", scheme="consistent", n_flexible_modes=60,
                                                      **{TIP!r}))
         sim.set_inputs(F_x=1.0)
@@ -516,7 +516,7 @@ def test_inputs_that_are_not_floats_are_named(bad):
                                      {"shape": "tube", "outer_diameter": 1e100, "inner_diameter": 0.0},
                                      {"shape": "rectangle", "width": 1e200, "height": 1e200}])
 def test_scene_section_overflow_is_named(section):
-    from flexfmu.scene import scene_from_dict
+    from flexfmu.ffr.scene import scene_from_dict
     with pytest.raises(ParameterError) as exc:
         scene_from_dict({"points": [[0, 0, 0], [1, 0, 0]], "section": section,
                          "material": {"E": 2e11, "nu": 0.3, "rho": 7850}})

@@ -1,4 +1,4 @@
-"""Tests of flexfmu.rotation (paper Section 2, Eqs. 4-22).
+"""Tests of flexfmu.core.rotation (paper Section 2, Eqs. 4-22).
 
 References are exact rigid motions built here with numpy / scipy
 (Rotation, expm); nothing is computed by the code under test.
@@ -11,7 +11,7 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from flexfmu.errors import ParameterError
-from flexfmu.rotation import (
+from flexfmu.core.rotation import (
     angular_acceleration,
     angular_acceleration_oblique,
     angular_velocity,
@@ -245,7 +245,7 @@ def test_rotvec_rate_series_is_accurate_and_finite_at_zero():
     """c(theta) of Eq. (22) vs an extended-precision evaluation of
     (1 - (t/2) cot(t/2)) / t^2 on both sides of the series switch (theta = 0.1),
     and vs its Taylor limit 1/12 + t^2/720 where even long double cancels."""
-    from flexfmu.rotation import rotvec_rate_coefficient
+    from flexfmu.core.rotation import rotvec_rate_coefficient
 
     w = np.array([0.0, 0.0, 1.5])
     lam = np.array([0.6, 0.8, 0.0])

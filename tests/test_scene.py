@@ -6,10 +6,10 @@ import sys
 
 import pytest
 
-from flexfmu.assembly import build_beam_model
+from flexfmu.ffr.assembly import build_beam_model
 from flexfmu.cli import main as cli_main
 from flexfmu.errors import ParameterError
-from flexfmu.scene import builtin_scene_names, load_scene, scene_from_dict
+from flexfmu.ffr.scene import builtin_scene_names, load_scene, scene_from_dict
 
 GOOD = {"name": "ok", "points": [[0, 0, 0], [0, 0, 0.2], [0.1, 0, 0.2]],
         "section": {"shape": "circle", "diameter": 0.008},

@@ -1,6 +1,6 @@
 """Geometric (centrifugal) stiffening and the spin-up of Kane, Ryan & Banerjee (1987) (issue 5, "Spin-up").
 
-Geometric stiffness (flexfmu.geometric_stiffness) against independent results:
+Geometric stiffness (flexfmu.ffr.geometric_stiffness) against independent results:
 * the element matrix for a constant axial force is the textbook one (Przemieniecki);
 * the prestress of a spinning beam is N(x) = rho A Omega^2 (L^2 - x^2) / 2 when clamped at the axis, and
   rho A Omega^2 ((L/2)^2 - (x - L/2)^2) / 2 when free and spinning about its centre (inertia relief); on a
@@ -11,7 +11,7 @@ Geometric stiffness (flexfmu.geometric_stiffness) against independent results:
 * a standing column under a vertical base acceleration buckles at Greenhill's a L^3 rho A / EI =
   (3 j / 2)^2 = 7.8373, j the first zero of the Bessel function J_{-1/3}.
 
-Spin-up (flexfmu.spinup) against the geometrically exact Exudyn reference tests/reference/spinup/:
+Spin-up (flexfmu.studies.spinup) against the geometrically exact Exudyn reference tests/reference/spinup/:
 * without stiffening, both the FFR and the reframe model turn unstable when the hub rate passes the first
   bending frequency 3.7977 rad/s (t = 8.51 s) and their tip deflection then diverges: detected and reported;
 * with stiffening, both follow the reference within 5 % of its peak over 0-20 s.
@@ -26,12 +26,12 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 from scipy.special import jv
 
-from flexfmu.assembly import build_beam_model
-from flexfmu.ffr_dynamics import BaseMotion, FFRBeamDynamics
-from flexfmu.geometric_stiffness import inertial_geometric_stiffness, local_geometric_stiffness
-from flexfmu.modal import solve_modes
-from flexfmu.scene import scene_from_dict
-from flexfmu import spinup
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.dynamics import BaseMotion, FFRBeamDynamics
+from flexfmu.ffr.geometric_stiffness import inertial_geometric_stiffness, local_geometric_stiffness
+from flexfmu.linalg.modal import solve_modes
+from flexfmu.ffr.scene import scene_from_dict
+from flexfmu.studies import spinup
 
 REFERENCE = Path(__file__).parent / "reference" / "spinup" / "trajectory.csv"
 L, EI, RHO_A = 10.0, 1.4e4, 1.2
@@ -97,7 +97,7 @@ def test_relieved_prestress_of_a_free_bent_rod():
     the solve carries no force (the axial forces do not depend on it), and rigid acceleration fields - uniform
     a0, or an angular acceleration about the centre of mass - cause no stress at all (a wrong translational or
     rotational relief term fails one of these)."""
-    from flexfmu.scene import load_scene
+    from flexfmu.ffr.scene import load_scene
 
     model = build_beam_model(load_scene("spatial_double_L"), "free", 4)
     last = model.mesh.n_nodes - 1

@@ -17,9 +17,9 @@ import pytest
 import scipy.linalg
 
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.modal_basis import mass_properties, modal_basis
-from flexfmu.models import load_model
-from flexfmu.reframe import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator
+from flexfmu.linalg.modal_basis import mass_properties, modal_basis
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator
 
 AXES = "xyz"
 
@@ -44,7 +44,7 @@ def natural_frequencies(structure):
 
 
 def principal_axes(structure):
-    """Principal moments (ascending) and axes (columns) about the centre of mass (flexfmu.modal_basis.
+    """Principal moments (ascending) and axes (columns) about the centre of mass (flexfmu.linalg.modal_basis.
     mass_properties, checked against an independent computation in tests/test_reframe.py)."""
     props = mass_properties(structure)
     return props.principal_moments, props.principal_axes
@@ -95,7 +95,7 @@ def test_reframe_body_sub_steps_automatically_or_refuses_internal_step():
     """ReframeBody (the façade the FMU wraps) with an RK4 scheme: internal_step = 0 splits a communication
     step 10x the RK4 limit into 12 internal steps inside it (90 % of the limit) and logs why; an explicit
     internal_step above the limit is refused naming internal_step."""
-    from flexfmu.reframe_body_sim import ReframeBodyConfig, ReframeBodySimulator
+    from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
     cfg = ReframeBodyConfig(model="beam:spatial_double_L", scheme="consistent", n_flexible_modes=3,
                             output_point_x=0.14, output_point_y=0.15, output_point_z=0.16)
@@ -164,8 +164,8 @@ def _study():
 def platform_beam_system(mass_ratio: float):
     """The study's FFRBeam-on-a-rigid-Platform system (platform density from the mass ratio), with the beam's
     inertia integrals and the platform's config."""
-    from flexfmu.ffr_beam_sim import FFRBeamConfig, FFRBeamSimulator
-    from flexfmu.platform_sim import PlatformConfig
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+    from flexfmu.wec.platform import PlatformConfig
 
     system = _study().platform_beam_system(mass_ratio)
     rho = next(spec for spec in system.simulators if spec.name == "platform").initial_values["rho"]
@@ -175,7 +175,7 @@ def platform_beam_system(mass_ratio: float):
 def kicked_run(system, h, scheme, n_steps):
     """A 1 N kick on the beam tip for one step, then free; peak |payload force| in the first and last
     fifth, or the divergence a component reported."""
-    from flexfmu.cosim import Master
+    from flexfmu.cosim.masters import Master
 
     master = Master(system, "library")
     master.initialize()
@@ -202,9 +202,9 @@ def test_cosim_coupling_instability_detected_and_stable_point_stable():
     reports it and a run diverges (the Platform raises).  A light beam (mass ratio 1e-3) at 0.1 ms is
     stable and its run decays; a beam as heavy as the platform is stable at 0.1 ms but not at 2.5 ms,
     where the step approaches its modes' periods (40-322 Hz)."""
-    from flexfmu.cosim import STABILITY_TOLERANCE, spectral_radius, stability_check, step_map
-    from flexfmu.platform_sim import mass_matrix
-    from flexfmu.vec3 import skew
+    from flexfmu.cosim.masters import STABILITY_TOLERANCE, spectral_radius, stability_check, step_map
+    from flexfmu.wec.platform import mass_matrix
+    from flexfmu.core.vec3 import skew
 
     system, ints, pcfg = platform_beam_system(10.0)
     Mp = mass_matrix(pcfg)

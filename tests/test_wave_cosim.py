@@ -13,10 +13,10 @@ import pytest
 from fmu_helpers import ROOT, Instance, build_fmus
 
 from flexfmu import cli
-from flexfmu.cosim import (STABILITY_TOLERANCE, Master, load_system, run, run_libcosim, spectral_radius,
+from flexfmu.cosim.masters import (STABILITY_TOLERANCE, Master, load_system, run, run_libcosim, spectral_radius,
                            write_osp)
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.wec import beam_recorder, energy_balance, harvester_values, point_position, with_models
+from flexfmu.wec.system import beam_recorder, energy_balance, harvester_values, point_position, with_models
 
 SYSTEM = ROOT / "examples" / "wave_converter" / "OspSystemStructure.xml"
 # Measured with examples/wave_converter/studies.py stability (docs/wave_converter.md)

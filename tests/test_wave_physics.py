@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from flexfmu.errors import ParameterError
-from flexfmu.hydrostatics_sim import HydrostaticsConfig, HydrostaticsSimulator
-from flexfmu.platform_sim import PlatformConfig, PlatformSimulator
-from flexfmu.pto_sim import PTOConfig, PTOSimulator
-from flexfmu.wave import (FloatingBox, froude_krylov_transfer, jonswap_sea, jonswap_spectrum, ramp, regular_wave,
+from flexfmu.wec.hydrostatics import HydrostaticsConfig, HydrostaticsSimulator
+from flexfmu.wec.platform import PlatformConfig, PlatformSimulator
+from flexfmu.wec.pto import PTOConfig, PTOSimulator
+from flexfmu.wec.wave import (FloatingBox, froude_krylov_transfer, jonswap_sea, jonswap_spectrum, ramp, regular_wave,
                           wave_number)
-from flexfmu.wave_excitation_sim import WaveExcitationConfig, WaveExcitationSimulator
+from flexfmu.wec.wave_excitation import WaveExcitationConfig, WaveExcitationSimulator
 
 
 def test_dispersion_deep_and_finite_depth():

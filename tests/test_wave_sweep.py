@@ -7,7 +7,7 @@ import pytest
 from fmu_helpers import ROOT, build_fmus
 
 from flexfmu.errors import ParameterError
-from flexfmu.wec import Case, sweep
+from flexfmu.wec.system import Case, sweep
 
 SYSTEM = ROOT / "examples" / "wave_converter" / "OspSystemStructure.xml"
 CASES = [Case("XFF", "regular", 0.05, 1.4), Case("XFX", "jonswap", 0.08, 1.2, seed=7)]

@@ -71,8 +71,8 @@ def test_ffr_hammer_error_against_the_independent_reference_shrinks_at_second_or
 def test_reframe_rod_error_shrinks_with_the_time_step(wp):
     """Rod case building blocks: elastic deflection of the loaded free end against a finer step; the
     consistent scheme is fourth order there, the fixed-frame baseline is not closer than it."""
-    from flexfmu.modal_basis import modal_basis
-    from flexfmu.reframe import FixedFrameBaseline, ReframeIntegrator
+    from flexfmu.linalg.modal_basis import modal_basis
+    from flexfmu.reframe.integrator import FixedFrameBaseline, ReframeIntegrator
 
     bc = wp.rod_case(quick=True)
     structure = bc.build(2)

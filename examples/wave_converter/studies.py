@@ -43,9 +43,9 @@ def harvester_response(boundary: str, periods, damping: float) -> np.ndarray:
     """Mean harvested power (W) of the harvester alone, its base shaken harmonically with 1 m/s^2
     amplitude, averaged over the three axes (steady state of the clamped modal model with the PTO
     damper at the harvester point and the modal damping of the system file)."""
-    from flexfmu.cosim import LibrarySlave, load_system
-    from flexfmu.ffr_beam_sim import FFRBeamSimulator
-    from flexfmu.wec import harvester_values
+    from flexfmu.cosim.masters import LibrarySlave, load_system
+    from flexfmu.ffr.simulator import FFRBeamSimulator
+    from flexfmu.wec.system import harvester_values
 
     system = load_system(SYSTEM)
     spec = system.by_model("FFRBeam")[0]
@@ -67,8 +67,8 @@ def harvester_response(boundary: str, periods, damping: float) -> np.ndarray:
 
 
 def tuning(args) -> int:
-    from flexfmu.cosim import load_system
-    from flexfmu.wec import Case, _config, sweep, write_table
+    from flexfmu.cosim.masters import load_system
+    from flexfmu.wec.system import Case, _config, sweep, write_table
 
     cases = [Case(b, "regular", args.wave_height, T) for b in BOUNDARIES for T in PERIODS]
     scheduler = None if args.serial else (args.scheduler or "local")
@@ -115,7 +115,7 @@ def tuning(args) -> int:
 
 
 def stability(args) -> int:
-    from flexfmu.cosim import load_system, run, spectral_radius
+    from flexfmu.cosim.masters import load_system, run, spectral_radius
 
     system = load_system(SYSTEM)
     hs = np.geomspace(2e-4, 0.15, args.points)
@@ -182,8 +182,8 @@ def stability(args) -> int:
 
 
 def energy(args) -> int:
-    from flexfmu.cosim import load_system, run
-    from flexfmu.wec import beam_recorder, energy_balance
+    from flexfmu.cosim.masters import load_system, run
+    from flexfmu.wec.system import beam_recorder, energy_balance
 
     system = load_system(SYSTEM)
     for scheme, steps in (("gauss-seidel", (2e-3, 1e-3, 5e-4)), ("jacobi", (1e-3, 5e-4))):
@@ -200,8 +200,8 @@ def energy(args) -> int:
 
 
 def example_run(args) -> int:
-    from flexfmu.cosim import load_system, run
-    from flexfmu.wec import energy_balance, plot_result, summary
+    from flexfmu.cosim.masters import load_system, run
+    from flexfmu.wec.system import energy_balance, plot_result, summary
 
     system = load_system(SYSTEM, fmu_dir=args.fmu_dir)
     r = run(system, args.t_end, None, scheme="gauss-seidel", backend="fmu", progress=True)

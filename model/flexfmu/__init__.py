@@ -1,6 +1,6 @@
 """flexfmu: flexible-body dynamics (FFR discontinuous beams, reframe integrator) for FMI co-simulation.
 
-Pure numerics; the FMU wrappers live in ``fmu_src/`` and import this package.
+The numerics, in subpackages (docs/architecture.md); the FMI side is flexfmu.fmi.
 """
 from flexfmu.errors import FlexfmuError, ParameterError
 

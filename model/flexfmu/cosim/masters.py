@@ -31,20 +31,14 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from flexfmu.fmi.registry import FMUS
 from flexfmu.errors import FlexfmuError, ParameterError, require
 
 OSP_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 SCHEMES = ("jacobi", "gauss-seidel")
 BACKENDS = ("fmu", "library")
 #: FMU model name -> the flexfmu module it wraps (config class, simulator class, names)
-LIBRARY_MODULES = {
-    "FFRBeam": ("flexfmu.ffr.simulator", "FFRBeamConfig", "FFRBeamSimulator"),
-    "ReframeBody": ("flexfmu.reframe.simulator", "ReframeBodyConfig", "ReframeBodySimulator"),
-    "WaveExcitation": ("flexfmu.wec.wave_excitation", "WaveExcitationConfig", "WaveExcitationSimulator"),
-    "Hydrostatics": ("flexfmu.wec.hydrostatics", "HydrostaticsConfig", "HydrostaticsSimulator"),
-    "Platform": ("flexfmu.wec.platform", "PlatformConfig", "PlatformSimulator"),
-    "PTO": ("flexfmu.wec.pto", "PTOConfig", "PTOSimulator"),
-}
+LIBRARY_MODULES = {spec.name: (spec.module, spec.config, spec.simulator) for spec in FMUS}
 
 
 # ====================================================================== system description

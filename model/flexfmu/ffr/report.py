@@ -56,7 +56,9 @@ def modal_analysis(scene: Scene, boundary: str = "scene", n_modes: int = 6, elem
         new_model, new_modes = solve(n_el)
         history.append((n_el, new_modes.frequencies_hz))
         model, modes = new_model, new_modes
-        if _max_relative_change(history[-2][1], history[-1][1]) < rtol:
+        # an unconstrained structure's first 6 modes are rigid: round-off around 0 Hz, nothing to converge
+        n_rigid = 6 if model.n_free == model.n_dof else 0
+        if _max_relative_change(history[-2][1][n_rigid:], history[-1][1][n_rigid:]) < rtol:
             return ModalResult(model, modes, n_el, True, history)
     return ModalResult(model, modes, n_el, False, history)
 
@@ -64,6 +66,8 @@ def modal_analysis(scene: Scene, boundary: str = "scene", n_modes: int = 6, elem
 def _max_relative_change(old: np.ndarray, new: np.ndarray) -> float:
     """Largest relative change of the elastic frequencies.  Rigid-body modes (below 1e-3 of
     the highest frequency in both meshes) are round-off around 0 Hz and are left out."""
+    if not len(new):
+        return 0.0
     rigid = np.maximum(old, new) < 1e-3 * float(max(new.max(), old.max()))
     elastic = ~rigid
     if not elastic.any():

@@ -1,6 +1,6 @@
 """FFRBeam: a scene's clamped structure in time, with named inputs and outputs.
 
-The FMU (fmu_src/FFRBeam.py) is a thin shell over this class: the variable names here are the
+The FMU (flexfmu.fmi.registry, flexfmu.fmi.plumbing) is a thin shell over this class: the variable names here are the
 FMU's.  Inputs are held over each step (zero-order hold) and the step is exact for such input
 (flexfmu.ffr.dynamics), so one internal step per communication step of any length.  With
 integrator = "rk4" the step is classical RK4 instead, sub-stepped automatically below its stability

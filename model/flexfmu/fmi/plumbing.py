@@ -45,15 +45,17 @@ class FmiStatus(Exception):
 
 
 class Plumbing:
-    """One instance.  ``module`` provides INPUT_NAMES, OUTPUT_NAMES, VARIABLE_INFO {name: (unit,
-    description)} and optionally DEFERRED_OUTPUTS; the simulator is built from a config (the
-    parameters) and has set_inputs(**) (or set_input_vector/output_vector), step(h), outputs(),
-    get_state()/set_state(dict), time and optionally a ``messages`` list."""
+    """One instance of the FMU ``spec`` (flexfmu.fmi.registry).  Its simulator module provides
+    INPUT_NAMES, OUTPUT_NAMES, VARIABLE_INFO {name: (unit, description)} and optionally DEFERRED_OUTPUTS;
+    the simulator is built from a config (the parameters) and has set_inputs(**) (or
+    set_input_vector/output_vector), step(h), outputs(), get_state()/set_state(dict), time and optionally
+    a ``messages`` list."""
 
-    def __init__(self, slave, config_class, simulator_class, module):
+    def __init__(self, slave, spec):
+        module = spec.load()
         self.slave = slave
-        self.config_class = config_class
-        self.simulator_class = simulator_class
+        self.config_class = config_class = spec.config_class
+        self.simulator_class = spec.simulator_class
         self.input_names = module.INPUT_NAMES
         self.output_names = module.OUTPUT_NAMES
         self.variable_info = module.VARIABLE_INFO

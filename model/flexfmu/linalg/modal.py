@@ -51,8 +51,13 @@ def dense_low_modes(K: np.ndarray, M: np.ndarray, n_modes: int) -> tuple[np.ndar
     try:
         sla.cholesky(K)
     except sla.LinAlgError:
-        estimate = sla.eigh(K, M, subset_by_index=[0, n_modes - 1], eigvals_only=True)
-        s = 1e-3 * float(estimate[-1]) if estimate[-1] > 0 else 1e-6 * float(np.median(np.diag(K)))
+        # up to 6 more than requested: when only rigid-body modes are requested (their eigenvalues are
+        # round-off), the first elastic one still sets the scale of the shift
+        estimate = sla.eigh(K, M, subset_by_index=[0, min(n, n_modes + 6) - 1], eigvals_only=True)
+        round_off = 1e-9 * float(np.max(np.abs(np.diag(K)))) / float(np.max(np.diag(M)))
+        scale = float(estimate[n_modes - 1]) if estimate[n_modes - 1] > round_off else \
+            next((float(x) for x in estimate if x > round_off), 0.0)
+        s = 1e-3 * scale if scale > 0 else 1e-6 * float(np.median(np.diag(K)))
     mu, phi = sla.eigh(M, K + s * M, subset_by_index=[n - n_modes, n - 1])
     return (1.0 / mu - s)[::-1], phi[:, ::-1]
 

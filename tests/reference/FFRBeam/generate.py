@@ -7,11 +7,11 @@ Each case folder gets FFRBeam_in.csv (step-shaped: inputs are held over each com
 FFRBeam_ref.csv, FFRBeam_ref.opt, FFRBeam_start.json (parameter start values; the fmi-cross-check
 layout has no place for them) and, where the case uses one, its scene JSON.  The README.md of each
 case (provenance) is written by hand.  Nothing here runs the FMU or flexfmu's time integration
-(flexfmu.ffr_dynamics / flexfmu.ffr_beam_sim):
+(flexfmu.ffr.dynamics / flexfmu.ffr.simulator):
 
   uniform_base_acceleration  Euler-Bernoulli cantilever under its own inertia load, closed form
                              (the static state the heavily damped FMU settles to);
-  static_tip_load            static FE solve K^-1 F (scipy spsolve on flexfmu.assembly's constrained
+  static_tip_load            static FE solve K^-1 F (scipy spsolve on flexfmu.ffr.assembly's constrained
                              stiffness) of the spatial double-L, reactions by statics of the whole rod;
   step_response_mode1        the exact step response of a damped single-DOF oscillator for mode 1 of a
                              flat-bar cantilever (mode from a dense scipy.linalg.eigh of the assembled
@@ -30,8 +30,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
-from flexfmu.assembly import build_beam_model
-from flexfmu.scene import load_scene
+from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
@@ -193,7 +193,7 @@ def step_response_mode1() -> Path:
     path.write_text(scene_text)
     model = build_beam_model(load_scene(path), "XFF", n_el, extra_arc_lengths=(L, x_s))
     mesh, n = model.mesh, model.n_dof
-    # Mode 1 from the assembled constrained M, K by scipy (not flexfmu.modal): a dense generalised eigh,
+    # Mode 1 from the assembled constrained M, K by scipy (not flexfmu.linalg.modal): a dense generalised eigh,
     # whose lowest eigenvalue carries ~eps lambda_max / lambda_1 (f_1 off by 1.1e-10 here), refined by inverse
     # iteration (error ratio (f_1 / f_2)^2 = 0.06 per step) and the Rayleigh quotient; mass-normalised.
     Kd, Md = model.K_free.toarray(), model.M_free.toarray()

@@ -6,8 +6,8 @@
 Each case folder gets ReframeBody_in.csv (step-shaped: inputs are held over each communication step),
 ReframeBody_ref.csv, ReframeBody_ref.opt, ReframeBody_start.json (parameter start values; the
 fmi-cross-check layout has no place for them) and, where the case uses one, its .npz structure file
-(flexfmu.io.save_structure).  The README.md of each case (provenance) is written by hand.  Nothing here
-runs the FMU or flexfmu's integrator (flexfmu.reframe / flexfmu.reframe_body_sim / flexfmu.modal_basis):
+(flexfmu.core.io.save_structure).  The README.md of each case (provenance) is written by hand.  Nothing here
+runs the FMU or flexfmu's integrator (flexfmu.reframe.integrator / flexfmu.reframe.simulator / flexfmu.linalg.modal_basis):
 
   constant_force_newton  Newton's law for the centre of mass of a free flexible body (closed form);
   rigid_paper_load       the paper's plate as a rigid body under the paper's load: Newton-Euler with a
@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from flexfmu.io import save_structure
-from flexfmu.models import load_model
-from flexfmu.plate import CORNER_MASS, CORNERS, DENSITY, LENGTHS, LOAD_POINT, paper_plate
-from flexfmu.scene import load_scene
+from flexfmu.core.io import save_structure
+from flexfmu.reframe.models import load_model
+from flexfmu.reframe.plate import CORNER_MASS, CORNERS, DENSITY, LENGTHS, LOAD_POINT, paper_plate
+from flexfmu.ffr.scene import load_scene
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))

@@ -5,15 +5,15 @@ floating frame of reference formulation (FEMinterface + ObjectFFRFreducedOrder).
     .venv/bin/python tests/reference/exudyn_plate/generate.py --check        # + a run at 2 dt, prints the differences
 
 Model (README.md next to this file):
-  * M, K, node positions: flexfmu.plate.paper_plate((20, 2, 1)), the coarse plate of tests/test_reframe.py
+  * M, K, node positions: flexfmu.reframe.plate.paper_plate((20, 2, 1)), the coarse plate of tests/test_reframe.py
     (1845 DOFs, tetra10 from scikit-fem, 1 kg corner masses) - the *input* shared with flexfmu;
   * modes: computed here by Exudyn's FEMinterface.ComputeEigenmodes (dense scipy eigh of K, M; the six
     rigid-body modes excluded), the first 10 flexible modes, mass-normalised; checked against
-    flexfmu.modal_basis (same frequencies, same subspace);
+    flexfmu.linalg.modal_basis (same frequencies, same subspace);
   * 5% modal damping: ObjectFFRFreducedOrder takes a reduced damping matrix (dampingMatrixReduced); it is
     set to diag(2 zeta omega_i m_i) after the object is created (the FEM helper only offers Rayleigh);
   * load: the paper's, 50 N along global [1, 0, 1]/sqrt(2), a 0.01 s half-sine pulse (as
-    flexfmu.reframe.half_sine_pulse(F, 0.01) in tests/test_reframe.py), on a MarkerSuperElementPosition of
+    flexfmu.reframe.integrator.half_sine_pulse(F, 0.01) in tests/test_reframe.py), on a MarkerSuperElementPosition of
     the mesh node at the load point (-0.5, 0, 0.01) m: Exudyn applies it at the *deformed* node position;
   * free flight to 1 s; generalized-alpha with spectral radius 1 (no numerical damping), dt = 2.5e-6 s.
 
@@ -49,7 +49,7 @@ def build_fem():
     """FEMinterface with the plate's nodes, M, K and the first N_FLEXIBLE free-free modes (Exudyn's solver)."""
     from exudyn.FEM import FEMinterface
 
-    from flexfmu.plate import paper_plate
+    from flexfmu.reframe.plate import paper_plate
 
     plate = paper_plate(DIVISIONS)
     fem = FEMinterface()
@@ -62,8 +62,8 @@ def build_fem():
 
 
 def check_modes(plate, Psi, freqs):
-    """The same flexible modes as flexfmu.modal_basis: frequencies and the M-subspace (principal cosines)."""
-    from flexfmu.modal_basis import modal_basis
+    """The same flexible modes as flexfmu.linalg.modal_basis: frequencies and the M-subspace (principal cosines)."""
+    from flexfmu.linalg.modal_basis import modal_basis
 
     mb = modal_basis(plate, N_FLEXIBLE, ZETA)
     df = float(np.max(np.abs(freqs - mb.frequencies_hz) / mb.frequencies_hz))
@@ -77,7 +77,7 @@ def simulate(fem, dt=DT, t_end=T_END):
     import exudyn.itemInterface as eii
     from exudyn.FEM import ObjectFFRFreducedOrderInterface
 
-    from flexfmu.plate import LOAD_POINT
+    from flexfmu.reframe.plate import LOAD_POINT
 
     Psi = np.asarray(fem.modeBasis["matrix"])
     cms = ObjectFFRFreducedOrderInterface(fem)
@@ -178,7 +178,7 @@ def main(argv=None):
     df, dsub, _ = check_modes(plate, np.asarray(fem.modeBasis["matrix"]), freqs)
     print(f"exudyn {exu.__version__}; plate {DIVISIONS}: {plate.n_dof} DOFs; flexible modes (Hz): "
           + ", ".join(f"{f:.4f}" for f in freqs))
-    print(f"vs flexfmu.modal_basis: max relative frequency difference {df:.2e}, 1 - min principal cosine {dsub:.2e}")
+    print(f"vs flexfmu.linalg.modal_basis: max relative frequency difference {df:.2e}, 1 - min principal cosine {dsub:.2e}")
     if df > 1e-6 or dsub > 1e-6:
         raise RuntimeError("Exudyn's modes are not flexfmu's modes")
     table, info = simulate(fem, args.dt)
