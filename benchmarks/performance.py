@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Performance figures of issue 6: figure, ours, peer or limit, ratio; writes docs/performance.md.
+"""Performance figures: figure, ours, peer or limit, ratio; writes docs/performance.md.
 
     .venv/bin/python benchmarks/performance.py [--quick] [--out docs/performance.md | -]
     flexfmu bench [--quick] [--out ...]                     (the same)
@@ -650,7 +650,7 @@ def run(quick: bool) -> tuple[list, list, dict]:
 
 def write_report(path: Path, rows, extra, mach, quick, elapsed):
     lines = [
-        "# Performance (issue 6)",
+        "# Performance",
         "",
         "Written by `benchmarks/performance.py` (also `flexfmu bench`); the last run"
         + (" (--quick)" if quick else "") + f", {elapsed:.0f} s wall. Per-step and record figures are CPU time of"

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Stability where methods fail (issue 5, item 2): four studies, each a table on stdout and a chart.
+"""Stability where methods fail: four studies, each a table on stdout and a chart.
 
     .venv/bin/python benchmarks/stability.py [--only rk4|rotation|cosim|tumbling] [--figures docs/figures]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Work-precision study (issue 5, item 1): error against a converged reference versus CPU time, over the
+"""Work-precision study: error against a converged reference versus CPU time, over the
 time step, the number of modes and the mesh, for every method; PNG charts + docs/work_precision.md.
 
     .venv/bin/python benchmarks/work_precision.py [--quick] [--out-dir DIR] [--doc PATH | --doc -]
@@ -817,7 +817,7 @@ def conclusions(case: Case) -> list[str]:
 def write_report(path: Path, cases, figures, mach, quick, elapsed, extra_notes, today: str,
                  replotted: bool = False) -> None:
     lines = [
-        "# Work-precision study (issue 5, item 1)",
+        "# Work-precision study",
         "",
         "Written by `benchmarks/work_precision.py` (also `flexfmu bench work-precision`); the run: "
         + ("**--quick**" if quick else "**full**") + f", {today}, {elapsed:.0f} s; machine: {mach}."

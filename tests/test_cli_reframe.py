@@ -1,4 +1,4 @@
-"""`flexfmu reframe` (issue 3, item 10): CSV columns, values against the library and physics, progress, bad input.
+"""`flexfmu reframe`: CSV columns, values against the library and physics, progress, bad input.
 
 A small model keeps it fast: the free-free bent rod spatial_double_L (25 nodes, 6 DOF/node).
 """
@@ -17,7 +17,7 @@ from flexfmu.reframe.models import load_model
 from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator
 
 MODEL = "beam:spatial_double_L"
-# The ReframeBody FMU's output names (issue 4), written out here rather than imported.
+# The ReframeBody FMU's output names, written out here rather than imported.
 EXPECTED_COLUMNS = (
     "time pos_x pos_y pos_z vel_x vel_y vel_z q_w q_x q_y q_z omega_1 omega_2 omega_3 alpha_1 alpha_2 alpha_3 "
     "com_pos_x com_pos_y com_pos_z com_vel_x com_vel_y com_vel_z out_pos_x out_pos_y out_pos_z "

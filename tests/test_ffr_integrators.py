@@ -1,4 +1,4 @@
-"""FFR modal step: the exact zero-order-hold update (matrix exponential) and the RK4 option (issue 5, item 4).
+"""FFR modal step: the exact zero-order-hold update (matrix exponential) and the RK4 option.
 
 * the exact update reproduces the closed-form response of a damped single-mode oscillator to a step force,
   for steps of any length (no step-size limit);

@@ -1,4 +1,4 @@
-"""ReframeBody.fmu choosing for the user (issue 5): the model size (n_flexible_modes = -1 with f_max and
+"""ReframeBody.fmu choosing for the user: the model size (n_flexible_modes = -1 with f_max and
 tolerance), the internal step (RK4 limit: sub-stepped and logged) and the exponential scheme; each decision
 is logged with status OK and the numbers behind it."""
 import math
@@ -131,7 +131,7 @@ def test_exponential_scheme_through_the_fmu(body):
 
 
 def test_auto_model_response_to_a_short_pulse_meets_the_tolerance():
-    """The automatic basis in the response (issue 5 item 3): free-free rod, a 2 ms half-sine blow (10 N) at the free
+    """The automatic basis in the response: free-free rod, a 2 ms half-sine blow (10 N) at the free
     end, f_max = 1.5 / pulse = 750 Hz, tolerance 1e-3.  The elastic deflection (body frame) of the loaded end and of
     the other end over 40 ms against the same rod with ALL its flexible modes (exponential scheme, exact in the
     modal part, same step: the difference is the truncation; the integrator itself is checked in

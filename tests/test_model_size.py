@@ -46,7 +46,7 @@ def vector(outputs: dict, name: str) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------- the Must-show case
 def test_double_l_choice_frequencies_and_static_deflection():
-    """Issue 5 Must-show: spatial double-L (XFF), f_max = 300 Hz, tolerance 1e-3.  The chosen model's
+    """The reference case: spatial double-L (XFF), f_max = 300 Hz, tolerance 1e-3.  The chosen model's
     frequencies below 300 Hz are within 1e-3 of the converged ones and its static tip deflection equals
     the full model's (same mesh, all DOFs: K^-1 f) to 1e-6."""
     f64, f32 = converged_double_l(30)
@@ -208,7 +208,7 @@ def _pulse_response(dyn, force, moment, pulse, t_grid):
 
 @pytest.mark.parametrize("load", ["force", "moment"])
 def test_automatic_model_response_to_a_hammer_meets_the_tolerance(load):
-    """Issue 5 item 3 in the response: the automatic model (f_max = 1.5 / pulse = 1500 Hz, tolerance 1e-3) hit by
+    """In the response: the automatic model (f_max = 1.5 / pulse = 1500 Hz, tolerance 1e-3) hit by
     a 1 ms half-sine tip force (or moment), tip_u and sensor_u over 30 ms against the closed-form modal solution
     with ALL 288 modes of a finer mesh (16 elements per segment; exact in time).  Error = max over time of the
     vector error / max over time of the reference, per output.  The old rule (only the modes below f_max, with

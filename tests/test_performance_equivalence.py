@@ -1,4 +1,4 @@
-"""The fast paths compute the same numbers as the definitions (issue 6; speed is measured in benchmarks/,
+"""The fast paths compute the same numbers as the definitions (speed is measured in benchmarks/,
 never asserted here):
 
 * the consistent reframe step in modal space (invariants + step kernel) against the same scheme written

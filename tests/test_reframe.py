@@ -1,4 +1,4 @@
-"""Reframe integrator (issue 3, items 5-9): references never come from flexfmu.reframe.integrator.
+"""Reframe integrator: references never come from flexfmu.reframe.integrator.
 
 * rigid references: Newton + Euler equations with quaternions, scipy solve_ivp (DOP853, rtol 1e-12),
   mass / centre of mass / inertia computed here from M and the node positions;

@@ -1,4 +1,4 @@
-"""Exponential reframe scheme (scheme="exponential", issue 5 item 4) and the geometric-stiffness hook.
+"""Exponential reframe scheme (scheme="exponential") and the geometric-stiffness hook.
 
 References never come from the code under test: the analytic damped oscillator, the consistent scheme at
 a small step (its dt -> 0 limit; it is itself checked against rigid Newton-Euler, Exudyn and a

@@ -1,4 +1,4 @@
-"""Independent flexible reference (issue 3, "Must show"): the paper's plate load case in Exudyn's reduced-order
+"""Independent flexible reference: the paper's plate load case in Exudyn's reduced-order
 floating frame of reference formulation, stored in tests/reference/exudyn_plate/trajectory.csv by
 tests/reference/exudyn_plate/generate.py (Exudyn is not needed here).
 
@@ -104,7 +104,7 @@ def test_omega_after_load(runs):
     for arm in (True, False):
         print(f"flexfmu consistent, deformed_load_arm={arm!s:5}: omega(0.01 s) = {out[arm][0].omega[i1]}, "
               f"max_t>=0.01 |omega - omega_Exudyn| / |omega_Exudyn| = {err[arm]:.3g}")
-    assert err[True] <= 1e-3                     # issue 3 bound
+    assert err[True] <= 1e-3                     # the bound asked for
     assert err[True] <= 1e-6                     # what is measured (~1e-7): the u_F x f effect (~7e-6) is resolved
     # Linear arm: missing moment impulse dL = int (u_F x f) dt (body frame; u_F from flexfmu's deformed-arm run
     # on a fine grid, f the pulse), so omega_linear - omega_deformed = -J^-1 dL after the load.

@@ -1,4 +1,4 @@
-"""Geometric (centrifugal) stiffening and the spin-up of Kane, Ryan & Banerjee (1987) (issue 5, "Spin-up").
+"""Geometric (centrifugal) stiffening and the spin-up of Kane, Ryan & Banerjee (1987).
 
 Geometric stiffness (flexfmu.ffr.geometric_stiffness) against independent results:
 * the element matrix for a constant axial force is the textbook one (Przemieniecki);

@@ -1,4 +1,4 @@
-"""Sanity checks of the geometrically exact spin-up reference (issue 5, "Spin-up (Kane, Ryan & Banerjee 1987)").
+"""Sanity checks of the geometrically exact spin-up reference.
 
 tests/reference/spinup/trajectory.csv is written by tests/reference/spinup/generate.py (Exudyn ANCF cable
 elements, see the README there); this test reads only the CSV.  Each check can fail on a wrong reference:

@@ -1,4 +1,4 @@
-"""Stability where methods fail (issue 5, item 2): each failure mode is shown, and detected or refused.
+"""Stability where methods fail: each failure mode is shown, and detected or refused.
 
 References never come from the code under test: the RK4 amplification polynomial, omega_max from a dense
 generalised eigenproblem of (K, M), principal axes and rigid lengths from M and the nodes, the fixed-frame

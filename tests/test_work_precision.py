@@ -1,4 +1,4 @@
-"""Building blocks of the work-precision study (benchmarks/work_precision.py, issue 5 item 1) and the
+"""Building blocks of the work-precision study (benchmarks/work_precision.py) and the
 `flexfmu bench <study>` dispatcher.  Fast: small models, short records; no timing is asserted."""
 from __future__ import annotations
 

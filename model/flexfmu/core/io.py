@@ -1,6 +1,6 @@
 """Read and write a conventional structural model (:class:`~flexfmu.core.structure.Structure`) as ``.npz``.
 
-File format (issue 3, item 1), exactly these ten keys::
+File format, exactly these ten keys::
 
     nodes           (N, 3) float   undeformed node coordinates, m, body frame
     dofs_per_node   ()     int     3 (solid: x, y, z) or 6 (beam: x, y, z, theta_x, theta_y, theta_z)

@@ -1,5 +1,5 @@
 """Spin-up of a cantilever on a hub (Kane, Ryan & Banerjee 1987): where linear floating-frame models fail, and
-how geometric (centrifugal) stiffening repairs them (issue 5, "Stability where methods fail").
+how geometric (centrifugal) stiffening repairs them.
 
 Problem (tests/reference/spinup/README.md): a straight beam, L = 10 m, EI = 1.4e4 N m^2, rho A = 1.2 kg/m,
 EA = 2.8e7 N, no gravity, no damping, clamped at the origin to a hub that turns about z by

@@ -1,4 +1,4 @@
-"""Geometrically exact reference for the spin-up problem of Kane, Ryan & Banerjee (1987), issue 5.
+"""Geometrically exact reference for the spin-up problem of Kane, Ryan & Banerjee (1987).
 
     .venv/bin/python tests/reference/spinup/generate.py            # trajectory.csv + spinup_tip_deflection.png (~40 s)
     .venv/bin/python tests/reference/spinup/generate.py --check    # + mesh, time-step and tolerance refinements and
