@@ -1,4 +1,14 @@
-"""Errors that tell the user which input is wrong and what is allowed."""
+"""The one error hierarchy of flexfmu: errors that tell the user which input is wrong and what is allowed.
+
+    FlexfmuError
+    ├── ParameterError           a value outside its allowed range (names the parameter and the range)
+    │   └── DivergenceError      a run that diverged (names the input or parameter behind it, else "state")
+    ├── NonFiniteError           a value that must be finite is not (names it, or its cause)
+    ├── StepRejected             a step a smaller one may take (an FMU answers fmi2Discard)
+    ├── ConvergenceError         an iterative solver did not converge
+    │   └── ModalConvergenceError    the sparse eigensolver, or a mode failing its residual check
+    └── CosimulationError        an FMU or master failed in a co-simulation (with the FMU's log)
+"""
 from __future__ import annotations
 
 
@@ -46,3 +56,19 @@ class StepRejected(FlexfmuError):
     def __init__(self, parameter: str, message: str):
         self.parameter = parameter
         super().__init__(f"{parameter}: {message}")
+
+
+class DivergenceError(ParameterError):
+    """A run that diverged; ``parameter`` names the input or parameter behind it (else ``state``)."""
+
+
+class ConvergenceError(FlexfmuError, RuntimeError):
+    """An iterative solver did not converge within its limits."""
+
+
+class ModalConvergenceError(ConvergenceError):
+    """The sparse eigensolver did not converge, or a returned mode is not an eigenvector."""
+
+
+class CosimulationError(FlexfmuError):
+    """An FMU call or a master failed during a co-simulation; the message carries the FMU's log."""

@@ -32,7 +32,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from flexfmu.fmi.registry import FMUS
-from flexfmu.errors import FlexfmuError, ParameterError, require
+from flexfmu.errors import CosimulationError, ParameterError, require
 
 OSP_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 SCHEMES = ("jacobi", "gauss-seidel")
@@ -227,7 +227,7 @@ class LibrarySlave:
 
 
 class FmuSlave:
-    """An FMU instance through fmpy's FMU2Slave; FMI errors raise FlexfmuError with the FMU's log."""
+    """An FMU instance through fmpy's FMU2Slave; FMI errors raise CosimulationError with the FMU's log."""
 
     _extracted: dict = {}
 
@@ -268,7 +268,7 @@ class FmuSlave:
             return fn(*args, **kwargs)
         except Exception as exc:
             message = self.log[-1] if self.log else str(exc)
-            raise FlexfmuError(f"{self.name}: {what} failed: {message}") from None
+            raise CosimulationError(f"{self.name}: {what} failed: {message}") from None
 
     def initialize(self, start_time: float = 0.0):
         self._call("setupExperiment", self.fmu.setupExperiment, startTime=start_time)

@@ -28,7 +28,7 @@ import numpy as np
 from flexfmu.ffr.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_model
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_str, round_down, shown)
-from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
+from flexfmu.errors import DivergenceError, FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
 from flexfmu.ffr.dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.linalg.modal import solve_modes
 from flexfmu.sizing.model_size import (MAX_ELEMENTS_PER_SEGMENT, SAFETY_FACTOR, ModelChoice, StaticCorrection, TruncationChoice,
@@ -496,7 +496,7 @@ class FFRBeamSimulator:
             shown = f"{self.inputs[cause]:.6g} makes" if name else "the modal state"
             return NonFiniteError(cause, f"{shown} the modal state overflow (not finite) at t = {t:.6g} s: the state "
                                          "diverged; allowed: inputs within the linear model's range")
-        return ParameterError(name or "state", f"diverged at t = {t:.6g} s (modal state norm {size:.3g})"
+        return DivergenceError(name or "state", f"diverged at t = {t:.6g} s (modal state norm {size:.3g})"
                               + (f": {name} = {self.inputs[name]:.6g} alone moves it beyond {_DIVERGENCE_LIMIT:g}"
                                  if name else ""),
                               "inputs within the linear model's range; spin below the first bending frequency")

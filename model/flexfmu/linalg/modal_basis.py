@@ -40,7 +40,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from flexfmu.core import cache as _cache
-from flexfmu.errors import FlexfmuError, ParameterError
+from flexfmu.errors import ModalConvergenceError, ParameterError
 from flexfmu.core.io import validate_structure
 from flexfmu.linalg.modal import dense_low_modes
 from flexfmu.core.structure import Structure
@@ -56,10 +56,6 @@ KRYLOV_RTOL = 1e-7         # sparse mode converged: Ritz residual |S M x - theta
 KRYLOV_MAX_DIM = 400       # largest sparse search space (columns) before ModalConvergenceError
 EPS = np.finfo(float).eps
 RESIDUAL_RTOL = 1e-6       # returned mode: |K phi - lam M phi| / |K phi| <= this + 1000 x round-off floor
-
-
-class ModalConvergenceError(FlexfmuError, RuntimeError):
-    """The sparse eigensolver did not converge, or a returned mode is not an eigenvector."""
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from flexfmu.errors import NonFiniteError, ParameterError
+from flexfmu.errors import DivergenceError, NonFiniteError
 from flexfmu.wec.hydrostatics import BOX_INFO, BOX_NAMES, checked_box
 from flexfmu.core.checks import blame_inputs
 from flexfmu.wec.components import (AXES, check_config, check_finite_build, check_inputs, check_state_config, checked_outputs,
@@ -136,7 +136,7 @@ class PlatformSimulator:
         if not np.isfinite(size) or not np.all(np.isfinite(work)) or not np.isfinite(self.t + h):
             raise self._overflow(h)                          # the state is still that of the step's start
         if size > _DIVERGENCE_LIMIT:
-            raise ParameterError("state", f"diverged at t = {self.t + h:.6g} s (|xi|, |xi_dot| up to {size:.3g})",
+            raise DivergenceError("state", f"diverged at t = {self.t + h:.6g} s (|xi|, |xi_dot| up to {size:.3g})",
                                  "a communication step inside the coupling-stability limit "
                                  "(docs/wave_converter.md)")
         self.work = work
