@@ -39,3 +39,20 @@ def fmu_instance(fmus):
     yield make
     for inst in made:
         inst.free()
+
+
+#: Test tiers (pytest markers, registered in pyproject.toml); .ci/run runs them all.
+#: host: our FMUs in hosts other than fmpy; study: the studies' building blocks and independent references;
+#: fmu: anything that builds or loads an FMU; unit: the library alone.
+HOST_FILES = {"test_fmu_c_host.py", "test_fmu_ecos.py", "test_fmu_hosts.py"}
+STUDY_FILES = {"test_work_precision.py", "test_stability.py", "test_spinup_models.py", "test_spinup_reference.py",
+               "test_reframe_exudyn.py", "test_wave_sweep.py"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        name = item.path.name
+        tier = ("host" if name in HOST_FILES else "study" if name in STUDY_FILES
+                else "fmu" if "fmus" in getattr(item, "fixturenames", ()) or name.startswith(("test_fmu", "test_fmi"))
+                else "unit")
+        item.add_marker(getattr(pytest.mark, tier))

@@ -186,3 +186,14 @@ def test_least_recently_used_entries_are_evicted_beyond_the_size_limit(cache_dir
     cache.store("test", cache.make_key("test", i=3), payload)
     remaining = {i for i in range(4) if cache.load("test", cache.make_key("test", i=i)) is not None}
     assert remaining == {0, 2, 3}                                  # entry 1, the least recently used, went
+
+
+def test_bounded_cache_starts_afresh_when_full():
+    from flexfmu.core.cache import BoundedCache
+    memo = BoundedCache(3)
+    for k in range(3):
+        memo[k] = k * k
+    memo[1] = 10                                  # an existing key: no reset
+    assert dict(memo) == {0: 0, 1: 10, 2: 4}
+    memo[3] = 9                                   # a fourth key: the memo starts afresh
+    assert dict(memo) == {3: 9}

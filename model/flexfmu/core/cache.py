@@ -215,3 +215,18 @@ def clear() -> int:
             _remove(p)
             n += 1
     return n
+
+
+class BoundedCache(dict):
+    """An in-memory memo of at most ``size`` entries that starts afresh when full: for per-instance caches
+    of results keyed by inputs that may vary every step (held inputs, step sizes), where an LRU's
+    bookkeeping would cost more than the occasional recomputation."""
+
+    def __init__(self, size: int):
+        super().__init__()
+        self.size = size
+
+    def __setitem__(self, key, value):
+        if len(self) >= self.size and key not in self:
+            self.clear()
+        super().__setitem__(key, value)
