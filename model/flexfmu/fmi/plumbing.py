@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, fields
+from typing import Protocol, runtime_checkable
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Integer, Real, String
 
@@ -33,6 +34,27 @@ TIME_RTOL = 1e-9
 STATE_FORMAT = 1
 _KIND = {str: String, int: Integer, float: Real, bool: Boolean}
 _TYPE_NAME = {Real: "Real", Integer: "Integer", Boolean: "Boolean", String: "String"}
+
+
+class Simulator(Protocol):
+    """What an FMU wraps (flexfmu.fmi.registry): built from its config dataclass (the parameters)."""
+
+    time: float                         # s since the start
+
+    def set_inputs(self, **inputs: float) -> None: ...    # held until set again; checked, naming each input
+    def step(self, step_size: float) -> None: ...
+    def outputs(self) -> dict[str, float]: ...
+    def get_state(self) -> dict: ...                      # plain data (JSON), with the config
+    def set_state(self, data: dict) -> None: ...
+    # optional: ``messages``, a list of texts the FMU logs with status OK and clears
+
+
+@runtime_checkable
+class VectorSimulator(Simulator, Protocol):
+    """A simulator with the cheaper positional paths, which the plumbing uses when present."""
+
+    def set_input_vector(self, values: list) -> None: ...   # INPUT_NAMES order
+    def output_vector(self, include_deferred: bool = True): ...   # OUTPUT_NAMES order (numpy array)
 
 
 class FmiStatus(Exception):
@@ -273,7 +295,7 @@ class Plumbing:
         sim = self._build(dict(self._values))
         self._sim = sim
         self._update_settable()
-        self._vector_api = hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
+        self._vector_api = isinstance(sim, VectorSimulator)
         self._inputs_changed = False
         self._log_messages()
         self._outputs_valid = 0
@@ -338,7 +360,7 @@ class Plumbing:
         self._start_time = state["start_time"]
         self._sim = sim
         self._update_settable()
-        self._vector_api = sim is not None and hasattr(sim, "set_input_vector") and hasattr(sim, "output_vector")
+        self._vector_api = isinstance(sim, VectorSimulator)
         self._outputs_valid = 2 if sim is not None else 0
         self._inputs_changed = True                # the simulator's inputs are those of the state's last step
 
