@@ -18,7 +18,7 @@ import numpy as np
 
 from flexfmu.errors import require
 from flexfmu.wec.components import AXES, MemorylessSimulator, check_config, check_finite_build, vector_info
-from flexfmu.wec.wave import RHO_SEA, G, FloatingBox
+from flexfmu.wec.wave import BoxParameters, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
                + tuple(f"vel_{a}" for a in AXES) + tuple(f"omega_{a}" for a in AXES))
@@ -28,28 +28,15 @@ ZETA_NAMES = ("zeta_surge", "zeta_sway", "zeta_heave", "zeta_roll", "zeta_pitch"
 
 
 @dataclass(frozen=True)
-class HydrostaticsConfig:
-    """Parameters, named and defaulted as in the FMU (the box: as flexfmu.wec.wave.FloatingBox)."""
+class HydrostaticsConfig(BoxParameters):
+    """Parameters, named and defaulted as in the FMU: the box's (flexfmu.wec.wave.BoxParameters), then these."""
 
-    length: float = 1.0
-    beam: float = 0.6
-    draft: float = 0.25
-    z_G: float = -0.10
-    r_xx: float = 0.20
-    r_yy: float = 0.30
-    r_zz: float = 0.33
-    rho: float = RHO_SEA
-    g: float = G
     zeta_surge: float = 0.10
     zeta_sway: float = 0.10
     zeta_heave: float = 0.15
     zeta_roll: float = 0.05
     zeta_pitch: float = 0.10
     zeta_yaw: float = 0.10
-
-    def box(self) -> FloatingBox:
-        return FloatingBox(self.length, self.beam, self.draft, self.z_G, self.r_xx, self.r_yy, self.r_zz,
-                           self.rho, self.g)
 
     def zeta(self) -> np.ndarray:
         return np.array([getattr(self, n) for n in ZETA_NAMES])

@@ -28,7 +28,7 @@ from flexfmu.core.checks import blame_inputs
 from flexfmu.wec.components import (AXES, check_config, check_finite_build, check_inputs, check_state_config, checked_outputs,
                               check_step, vector_info)
 from flexfmu.core.vec3 import cross as _cross
-from flexfmu.wec.wave import RHO_SEA, G, FloatingBox
+from flexfmu.wec.wave import BoxParameters
 
 GROUPS = ("wave", "hydro", "payload", "pto")
 INPUT_NAMES = tuple(f"{g}_{k}_{a}" for g in GROUPS for k in "FM" for a in AXES)
@@ -41,25 +41,12 @@ _DIVERGENCE_LIMIT = 1e3   # m or rad: far outside the linear model
 
 
 @dataclass(frozen=True)
-class PlatformConfig:
-    """Parameters, named and defaulted as in the FMU (the box: as flexfmu.wec.wave.FloatingBox)."""
+class PlatformConfig(BoxParameters):
+    """Parameters, named and defaulted as in the FMU: the box's (flexfmu.wec.wave.BoxParameters), then these."""
 
-    length: float = 1.0
-    beam: float = 0.6
-    draft: float = 0.25
-    z_G: float = -0.10
-    r_xx: float = 0.20
-    r_yy: float = 0.30
-    r_zz: float = 0.33
-    rho: float = RHO_SEA
-    g: float = G
     mount_x: float = 0.0
     mount_y: float = 0.0
     mount_z: float = 0.15
-
-    def box(self) -> FloatingBox:
-        return FloatingBox(self.length, self.beam, self.draft, self.z_G, self.r_xx, self.r_yy, self.r_zz,
-                           self.rho, self.g)
 
     @property
     def mount(self) -> np.ndarray:

@@ -14,7 +14,7 @@ integrated over the mean wetted surface of the box gives the Froude-Krylov force
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -110,11 +110,11 @@ def jonswap_sea(hs: float, tp: float, gamma: float = 3.3, n_components: int = 64
 
 # ------------------------------------------------------------------ the floating box
 @dataclass(frozen=True)
-class FloatingBox:
-    """A rectangular box floating freely in equilibrium (mass = rho * displaced volume).
-
-    length L (x), beam W (y), draft T (m); centre of gravity at (0, 0, z_G) from the waterplane
-    centre O; radii of gyration about G (m); water density rho (kg/m^3) and gravity g (m/s^2)."""
+class BoxParameters:
+    """The floating box's parameters: length L (x), beam W (y), draft T (m); centre of gravity at
+    (0, 0, z_G) from the waterplane centre O; radii of gyration about G (m); water density rho (kg/m^3)
+    and gravity g (m/s^2).  The components' configs that describe the box derive from it (same names,
+    same defaults, first in their parameter lists)."""
 
     length: float = 1.0
     beam: float = 0.6
@@ -125,6 +125,14 @@ class FloatingBox:
     r_zz: float = 0.33
     rho: float = RHO_SEA
     g: float = G
+
+    def box(self) -> "FloatingBox":
+        return FloatingBox(**{f.name: getattr(self, f.name) for f in fields(BoxParameters)})
+
+
+@dataclass(frozen=True)
+class FloatingBox(BoxParameters):
+    """A rectangular box floating freely in equilibrium (mass = rho * displaced volume)."""
 
     def check(self) -> "FloatingBox":
         for name in ("length", "beam", "draft", "r_xx", "r_yy", "r_zz", "rho", "g"):
@@ -266,6 +274,4 @@ def ramp(t: float, ramp_time: float) -> float:
     return 0.5 * (1.0 - math.cos(math.pi * t / ramp_time))
 
 
-def _skew(v) -> np.ndarray:
-    x, y, z = v
-    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+from flexfmu.core.vec3 import skew as _skew  # noqa: E402  (the one unchecked skew; used above at call time)
