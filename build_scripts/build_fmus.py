@@ -1,133 +1,14 @@
 #!/usr/bin/env python3
-"""Build the flexfmu FMUs into dist/ (or --out), bundling the flexfmu package, then complete
-modelDescription.xml with what pythonfmu cannot declare and validate the result with fmpy.
+"""Build the FMUs into dist/ (or --out): a shell over flexfmu.fmi.build (also `flexfmu build`).
 
-    python build_scripts/build_fmus.py [--out dist]       (also: flexfmu build)
-
-Post-processing: units and UnitDefinitions, a DefaultExperiment, outputs declared
-initial="calculated" with InitialUnknowns (their start values depend on the parameters), and the
-flexfmu runtime (build_scripts/fmu_runtime.py) in place of pythonfmu's binary.
+    python build_scripts/build_fmus.py [--out dist]
 """
-from __future__ import annotations
-
-import argparse
-import shutil
 import sys
-import tempfile
-import zipfile
 from pathlib import Path
-from xml.etree import ElementTree as ET
 
-ROOT = Path(__file__).resolve().parents[1]
-PACKAGE = ROOT / "model" / "flexfmu"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "model"))   # a source checkout without install
 
-# SI base-unit exponents of every unit used.
-UNITS = {
-    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2}, "N": {"kg": 1, "m": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2}, "Hz": {"s": -1}, "J": {"kg": 1, "m": 2, "s": -2},
-    "rad/s": {"rad": 1, "s": -1}, "rad/s2": {"rad": 1, "s": -2}, "s": {"s": 1}, "kg": {"kg": 1},
-}
-
-
-def _registry():
-    sys.path.insert(0, str(ROOT / "model"))
-    from flexfmu.fmi import registry
-    return registry
-
-
-def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> bytes:
-    root = ET.fromstring(xml_text)
-    used = sorted({unit for unit, _ in info.values() if unit})
-    children = list(root)
-    insert_at = next(i for i, c in enumerate(children) if c.tag == "CoSimulation") + 1
-    unit_defs = ET.Element("UnitDefinitions")
-    for name in used:
-        unit = ET.SubElement(unit_defs, "Unit", name=name)
-        ET.SubElement(unit, "BaseUnit", {k: str(v) for k, v in UNITS[name].items()})
-    root.insert(insert_at, unit_defs)
-    model_variables = root.find("ModelVariables")
-    root.insert(list(root).index(model_variables), ET.Element("DefaultExperiment", experiment))
-
-    output_indices = []
-    for index, var in enumerate(model_variables, start=1):
-        unit, description = info[var.get("name")]
-        var.set("description", description)
-        typed = var[0]
-        if unit and typed.tag == "Real":
-            typed.set("unit", unit)
-        if var.get("causality") == "output":
-            var.set("initial", "calculated")
-            typed.attrib.pop("start", None)
-            output_indices.append(index)
-    structure = root.find("ModelStructure")
-    initial = ET.SubElement(structure, "InitialUnknowns")
-    for index in output_indices:
-        ET.SubElement(initial, "Unknown", index=str(index))
-    ET.indent(root, "\t")
-    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
-
-
-def _rewrite_model_description(fmu: Path, info: dict, experiment: dict) -> None:
-    with zipfile.ZipFile(fmu) as zf:
-        members = {name: zf.read(name) for name in zf.namelist()}
-    members["modelDescription.xml"] = _complete_model_description(
-        members["modelDescription.xml"].decode("utf-8"), info, experiment)
-    tmp = fmu.with_suffix(".tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, data in members.items():
-            zf.writestr(name, data)
-    tmp.replace(fmu)
-
-
-def _runtime_module():
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("fmu_runtime", Path(__file__).resolve().with_name("fmu_runtime.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def build(out: Path) -> list[Path]:
-    from fmpy.validation import validate_fmu
-    from pythonfmu.builder import FmuBuilder
-
-    out.mkdir(parents=True, exist_ok=True)
-    registry = _registry()
-    from flexfmu import __version__
-    from flexfmu.fmi.loader import package_build_id
-    runtime = _runtime_module()
-    front, bridge = runtime.compile_runtime(runtime.build_folder())
-    build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
-    built = []
-    for spec in registry.FMUS:
-        with tempfile.TemporaryDirectory() as tmp:
-            script = Path(tmp) / "slave" / f"{spec.name}.py"       # generated from the registry
-            script.parent.mkdir()
-            script.write_text(registry.slave_script(spec), encoding="utf-8")
-            # Bundle a clean copy of the package (no caches) under the import name flexfmu.
-            package = Path(tmp) / "flexfmu"
-            shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
-                                            canGetAndSetFMUstate=True, canSerializeFMUstate=True))
-            _rewrite_model_description(fmu, spec.load().VARIABLE_INFO, spec.experiment)
-            runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": spec.name})
-            target = out / f"{spec.name}.fmu"
-            shutil.move(str(fmu), target)
-        problems = validate_fmu(str(target))
-        if problems:
-            raise SystemExit(f"{target}: fmpy validate found problems:\n" + "\n".join(problems))
-        print(f"built {target} (fmpy validate: no problems)")
-        built.append(target)
-    return built
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "dist", help="output folder (default: dist)")
-    args = parser.parse_args(argv)
-    build(args.out)
-    return 0
-
+from flexfmu.fmi.build import build, main  # noqa: E402,F401  (build: for callers that load this file)
 
 if __name__ == "__main__":
     sys.exit(main())

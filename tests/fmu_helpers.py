@@ -14,11 +14,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def build_fmus(out: Path) -> dict[str, Path]:
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("build_fmus", ROOT / "build_scripts" / "build_fmus.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return {p.stem: p for p in module.build(out)}
+    from flexfmu.fmi.build import build
+    return {p.stem: p for p in build(out)}
 
 
 class Instance:

@@ -21,7 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 CLEAN_PATH = "/usr/bin:/bin"
 
-#: The flexfmu FMU runtime (build_scripts/runtime/, since 939bbe3) finds libpython, the Python home and
+#: The flexfmu FMU runtime (flexfmu/fmi/csrc/, since 939bbe3) finds libpython, the Python home and
 #: the build's site-packages itself; FMUs built before it (pythonfmu's binary) need python_environment().
 FMUS_NEED_PYTHON_ENVIRONMENT = False
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fmu_helpers import ROOT, Instance, build_fmus
+from fmu_helpers import ROOT, Instance
 
 from flexfmu import cli
 from flexfmu.cosim.masters import (STABILITY_TOLERANCE, Master, load_system, run, run_libcosim, spectral_radius,
@@ -25,10 +25,9 @@ JACOBI_LIMIT = 1.095e-3
 
 
 @pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dist")
-    build_fmus(out)
-    return out
+def fmu_dir(fmus):
+    """The session's one build (tests/conftest.py): the folder holding every FMU."""
+    return next(iter(fmus.values())).parent
 
 
 def _max_rel_diff(a, b, rows_a=slice(None), rows_b=slice(None)):

@@ -4,7 +4,7 @@ import builtins
 
 import pytest
 
-from fmu_helpers import ROOT, build_fmus
+from fmu_helpers import ROOT
 
 from flexfmu.errors import ParameterError
 from flexfmu.wec.system import Case, sweep
@@ -15,10 +15,9 @@ T_END = 0.25
 
 
 @pytest.fixture(scope="module")
-def fmu_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dist")
-    build_fmus(out)
-    return out
+def fmu_dir(fmus):
+    """The session's one build (tests/conftest.py): the folder holding every FMU."""
+    return next(iter(fmus.values())).parent
 
 
 def _strip(rows):

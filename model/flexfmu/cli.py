@@ -81,18 +81,9 @@ def _main_job(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace) -> int:
-    """Build the FMUs with the source checkout's build_scripts/build_fmus.py."""
-    import importlib.util
-
-    script = Path(__file__).resolve().parents[2] / "build_scripts" / "build_fmus.py"
-    if not script.is_file():
-        print("flexfmu: error: build: needs a source checkout (build_scripts/build_fmus.py not found next to "
-              f"the installed package at {Path(__file__).parent}); install with 'pip install -e .'", file=sys.stderr)
-        return 2
-    spec = importlib.util.spec_from_file_location("build_fmus", script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    module.build(args.out.resolve() if args.out else script.parents[1] / "dist")
+    """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout."""
+    from flexfmu.fmi.build import build
+    build(args.out if args.out else Path("dist"))
     return 0
 
 
@@ -273,8 +264,8 @@ def build_parser() -> argparse.ArgumentParser:
     modal.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     modal.set_defaults(func=_modal)
 
-    build = sub.add_parser("build", help="build the FMUs into dist/ (source checkout)")
-    build.add_argument("--out", type=Path, default=None, help="output folder (default: dist/ of the checkout)")
+    build = sub.add_parser("build", help="build the FMUs of flexfmu.fmi.registry into dist/")
+    build.add_argument("--out", type=Path, default=None, help="output folder (default: ./dist)")
     build.set_defaults(func=_build)
 
     reframe = sub.add_parser(

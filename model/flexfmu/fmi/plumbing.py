@@ -1,6 +1,6 @@
-"""The FMI behaviour of one flexfmu FMU instance, as the FMU's binary (build_scripts/runtime) calls it.
+"""The FMI behaviour of one flexfmu FMU instance, as the FMU's binary (flexfmu/fmi/csrc) calls it.
 
-The binary owns the call sequence (its table in flexfmu_fmi2.c, printed in docs/fmu.md) and the
+The binary owns the call sequence (its table in csrc/flexfmu_fmi2.c, printed in docs/fmu.md) and the
 FMU-state header; this class owns the variables: value references, types, causality, finiteness, the
 simulator's life cycle, time, and the FMU state's content.  A refused call raises :class:`FmiStatus`
 (its status and one message, which the binary logs); the instance is left as it was.  Messages the

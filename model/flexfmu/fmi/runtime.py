@@ -1,14 +1,14 @@
 """The flexfmu FMU runtime: compile it and install it into a pythonfmu-built FMU.
 
 pythonfmu builds the modelDescription and the FMU's layout; its binary is replaced by ours
-(build_scripts/runtime/): a front library with no Python symbols (the FMI entry points, the
+(the C sources in flexfmu/fmi/csrc/, shipped with the package): a front library with no Python symbols (the FMI entry points, the
 call-sequence table, finding libpython) and a Python bridge compiled against this interpreter's
 headers.  The resources get what the binary needs to start Python and load the slave without any
 set-up on the build machine, and what a user needs to move the FMU to another one:
 
 * ``flexfmu_runtime.txt``: libpython, the interpreter's home, the environment's site-packages;
 * ``flexfmu_build.json``: model, flexfmu version, build id (a digest of the bundled package), GUID;
-* ``flexfmu_loader.py``: model/flexfmu/fmi/loader.py, run by the binary on each new extraction;
+* ``flexfmu_loader.py``: flexfmu/fmi/loader.py, run by the binary on each new extraction;
 * ``requirements.txt``: the exact versions of the packages the slave imports, built with.
 
 Linux x86-64 only: pythonfmu's binaries for other platforms are removed, since they would run the
@@ -32,8 +32,8 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 HERE = Path(__file__).resolve().parent
-RUNTIME = HERE / "runtime"
-LOADER = HERE.parent / "model" / "flexfmu" / "fmi" / "loader.py"
+RUNTIME = HERE / "csrc"
+LOADER = HERE / "loader.py"
 
 
 class RuntimeBuildError(RuntimeError):
