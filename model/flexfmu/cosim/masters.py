@@ -35,7 +35,7 @@ from flexfmu.fmi.registry import FMUS
 from flexfmu.errors import CosimulationError, ParameterError, require
 
 OSP_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
-SCHEMES = ("jacobi", "gauss-seidel")
+COUPLING_SCHEMES = ("jacobi", "gauss-seidel")   # how the master orders the FMUs in a step
 BACKENDS = ("fmu", "library")
 #: FMU model name -> the flexfmu module it wraps (config class, simulator class, names)
 LIBRARY_MODULES = {spec.name: (spec.module, spec.config, spec.simulator) for spec in FMUS}
@@ -488,7 +488,7 @@ def run(system: System, t_end: float, step: float | None = None, scheme: str = "
     """Our master: fixed step, Jacobi or Gauss-Seidel, over FMUs (fmpy) or the library façades.
     Records every output of every slave at every communication point (t = start .. t_end).
     ``record(slaves)`` (library backend) may return a dict of extra per-step values."""
-    require(scheme in SCHEMES, "scheme", f"got {scheme!r}", " | ".join(SCHEMES))
+    require(scheme in COUPLING_SCHEMES, "scheme", f"got {scheme!r}", " | ".join(COUPLING_SCHEMES))
     h = float(system.base_step if step is None else step)
     n = _n_steps(t_end, system.start_time, h)
     master = Master(system, backend)
