@@ -32,6 +32,8 @@ def test_auto_model_size_is_logged_with_its_numbers(body):
     sim = ReframeBodySimulator(ReframeBodyConfig(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3,
                                                  load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2]))
     assert text.startswith("\n".join(sim.messages))       # the library's messages, word for word
+    assert sim.messages[:2] == list(sim.model_choice.messages)           # the typed choice is what is logged
+    assert sim.model_choice.basis.n_flexible == sim.integrator.data.nf     # the modes and 6 residual vectors
     n_keep = sim.integrator.data.nf - 6
     assert (f"kept {n_keep} flexible mode(s) (the 3 up to f_max = 500 Hz and {n_keep - 3} above, until the "
             "estimated dynamic truncation error") in text and ": 148.2, 265.8, 280.4, 979.9" in text, text
@@ -159,7 +161,8 @@ def test_auto_model_response_to_a_short_pulse_meets_the_tolerance():
         return {node: float(np.max(np.linalg.norm(out[node] - reference[node], axis=1))
                             / np.max(np.linalg.norm(reference[node], axis=1))) for node in out}
 
-    basis, msgs = auto_basis(structure, 1.5 / pulse, 1e-3, 0.05, tip, far)
+    choice = auto_basis(structure, 1.5 / pulse, 1e-3, 0.05, tip, far)
+    basis, msgs = choice.basis, choice.messages
     err = errors(deflections(basis))
     print(f"\nautomatic basis ({basis.n_flexible} flexible coordinates): errors {err}")
     assert max(err.values()) <= 1e-3, (err, msgs)

@@ -25,6 +25,7 @@ from flexfmu.linalg.modal_basis import N_RIGID, modal_basis
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.plate import paper_plate
 from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, ReframeState, half_sine_pulse
+from flexfmu.reframe.layout import output_layout, param_layout
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -175,7 +176,7 @@ def test_paper_transformation_modal_equals_physical(plate):
     rng = np.random.default_rng(7)
     eta, incr = rng.standard_normal(2 * nm), 1e-2 * rng.standard_normal(2 * nm)
     R = _rodrigues(np.array([0.3, -0.2, 0.5]))
-    modal = integ._paper_transform(eta, incr, R)
+    modal = integ.stepper._paper_transform(eta, incr, R)
     qt = eta[:nm] + incr[:nm]
     qt[:N_RIGID] = eta[:N_RIGID]
     qdt = eta[nm:] + incr[nm:]
@@ -209,18 +210,18 @@ def test_numba_kernels_equal_numpy_versions(beam):
     dt, n = 5e-5, 200
     SV, held = loads.stage_values(s.t, dt, n)
     y0 = np.concatenate((s.position, s.rotation.ravel(), s.eta))
-    args = (integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV, held, 0.0, dt, n, y0)
+    pts = np.array([0, 7], dtype=np.int64)
+    ka = integ.kernel_arguments(loads, dt, pts)
+    args = (ka.P, ka.LP, ka.nf, True, SV, held, 0.0, dt, n, y0)
     y_nb, t_nb, k_nb, st_nb = K.consistent_steps(*args)
     y_np, t_np, k_np, st_np = K.consistent_steps_numpy(*args)
     assert (k_nb, st_nb, t_nb) == (k_np, st_np, t_np) == (n, 0, t_nb)
     assert _rel(y_nb, y_np) < 1e-12
-    pts = np.array([0, 7], dtype=np.int64)
-    out_args = (integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV[-1, 2], y_nb, integ._point_data(pts),
-                integ._Psi_c, integ.data.dpn, *integ._umax)
+    out_args = (ka.P, ka.LP, ka.nf, True, SV[-1, 2], y_nb, ka.PP, ka.Psi, ka.dpn, *ka.umax)
     assert _rel(K.consistent_outputs(*out_args), K.consistent_outputs_numpy(*out_args)) < 1e-12
     # an empty node order skips the max elastic displacement search: -1 there, every other output unchanged
-    skip_args = out_args[:-5] + integ._umax_skip
-    umax_at = 22 + 2 * integ.data.nf
+    skip_args = out_args[:-5] + ka.umax_skip
+    umax_at = output_layout(integ.data.nf, len(pts)).max_elastic_displacement
     full = K.consistent_outputs(*out_args)
     for kernel in (K.consistent_outputs, K.consistent_outputs_numpy):
         lean = kernel(*skip_args)
@@ -229,13 +230,34 @@ def test_numba_kernels_equal_numpy_versions(beam):
         assert _rel(lean[keep], full[keep]) < 1e-12
 
 
+def test_layout_module_agrees_with_the_kernels_and_the_snapshot(beam):
+    """reframe.layout names P's blocks (the kernels' _offsets) and the outputs' places: the sizes agree, and a
+    Snapshot reads each output from the place the kernels write it."""
+    for nf in (0, 1, 4, 9):
+        assert tuple(param_layout(nf)) == tuple(K._offsets(nf)) == tuple(getattr(K._offsets, "py_func", K._offsets)(nf))
+        assert K.param_size(nf) == param_layout(nf).end
+        L = output_layout(nf, 3)
+        assert K.output_size(nf, 3) == L.size == L.points.stop
+    integ, s, loads = _kernel_case(beam)
+    pts = np.array([0, 7], dtype=np.int64)
+    vec = integ.output_vector(s, loads, pts)
+    snap = integ.snapshot(s, loads, pts)
+    L = output_layout(integ.data.nf, len(pts))
+    assert vec.size == L.size
+    for name in ("frame_origin", "frame_origin_velocity", "quaternion", "omega", "alpha", "com_position",
+                 "com_velocity", "q", "qd"):
+        assert np.array_equal(vec[getattr(L, name)], getattr(snap, name)), name
+    assert vec[L.max_elastic_displacement] == snap.max_elastic_displacement
+    assert np.array_equal(vec[L.points].reshape(2, 6, 3)[:, 2], snap.point_acceleration)
+
+
 def test_output_vector_without_the_search_and_the_search_alone_give_all_outputs(beam):
     integ, s, loads = _kernel_case(beam)
     s = integ.advance_steps(s, 5e-5, 100, loads)
     pts = np.array([0, 7], dtype=np.int64)
     full = integ.output_vector(s, loads, pts)
     lean = integ.output_vector(s, loads, pts, max_elastic=False)
-    umax_at = 22 + 2 * integ.data.nf
+    umax_at = output_layout(integ.data.nf, len(pts)).max_elastic_displacement
     q = s.eta[N_RIGID:N_RIGID + integ.data.nf]
     all_nodes = float(np.max(np.linalg.norm((integ.data.Phi @ q)[integ.data.trans_rows], axis=1)))
     assert lean[umax_at] == -1.0

@@ -112,8 +112,8 @@ def test_no_rk4_stability_limit(beam):
     loads = integ.prepare_loads(PointLoad(LOAD_NODE, half_sine_pulse(2.0 * DIR, 0.02)))
     SV, held = loads.stage_values(0.0, dt, 80)
     y0 = np.concatenate((s.position, s.rotation.ravel(), s.eta))
-    _, _, done, status = K.consistent_steps(integ._P, integ._kernel_loads(loads), integ.data.nf, True, SV, held,
-                                            0.0, dt, 80, y0)
+    ka = integ.kernel_arguments(loads, dt)
+    _, _, done, status = K.consistent_steps(ka.P, ka.LP, ka.nf, True, SV, held, 0.0, dt, 80, y0)
     assert status == 2 and done < 80                          # RK4 blew up to non-finite values
     r, _ = _tumble_run(beam, mb, "exponential", dt)
     err_w = np.linalg.norm(r.omega[-1] - ref.omega[-1]) / np.linalg.norm(ref.omega[-1])
@@ -205,17 +205,16 @@ def test_numba_kernels_equal_numpy_versions(beam, scheme):
     loads = integ.prepare_loads(PointLoad(LOAD_NODE, half_sine_pulse([1.0, 0.0, 1.0], 0.005), moment=[0.0, 0.01, 0.0]))
     dt, n = (1e-3, 40) if scheme == "exponential" else (5e-5, 200)
     SV, held = loads.stage_values(s.t, dt, n)
-    EX = integ._exponential(dt) if scheme == "exponential" else np.zeros(0)
+    pts = np.array([0, 7], dtype=np.int64)
+    ka = integ.kernel_arguments(loads, dt, pts)                # EX: empty for the consistent scheme (RK4)
     y0 = np.concatenate((s.position, s.rotation.ravel(), s.eta))
-    args = (integ._P, integ._kernel_loads(loads), integ._Gk, EX, integ.data.nf, True, SV, held, 0.0, dt, n, y0)
+    args = (ka.P, ka.LP, ka.G, ka.EX, ka.nf, True, SV, held, 0.0, dt, n, y0)
     y_nb, t_nb, k_nb, st_nb = K.reframe_steps(*args)
     y_np, t_np, k_np, st_np = K.reframe_steps_numpy(*args)
     assert (k_nb, st_nb) == (k_np, st_np) == (n, 0) and t_nb == t_np
     assert np.max(np.abs(y_nb - y_np)) <= 1e-12 * np.max(np.abs(y_np))
     assert np.max(np.abs(y_np - y0)) > 1e-6                   # it moved
-    pts = np.array([0, 7], dtype=np.int64)
-    out_args = (integ._P, integ._kernel_loads(loads), integ._Gk, integ.data.nf, True, SV[-1, 2], y_nb,
-                integ._point_data(pts), integ._Psi_c, integ.data.dpn, *integ._umax)
+    out_args = (ka.P, ka.LP, ka.G, ka.nf, True, SV[-1, 2], y_nb, ka.PP, ka.Psi, ka.dpn, *ka.umax)
     o_nb, o_np = K.reframe_outputs(*out_args), K.reframe_outputs_numpy(*out_args)
     assert np.max(np.abs(o_nb - o_np)) <= 1e-12 * np.max(np.abs(o_np))
 

@@ -176,6 +176,29 @@ def test_rodrigues_matches_scipy_and_expm():
         np.testing.assert_allclose(A @ lam, lam, rtol=0, atol=1e-14)
 
 
+def test_the_rodrigues_and_skew_implementations_agree():
+    """The hot-path Rodrigues of the paper scheme (core.vec3, matrix products) and the reframe kernels'
+    element-wise one (numpy and compiled) are the same formula: equal up to rounding, and equal to
+    rotation_matrix(phi).T and scipy.  The unchecked skew, the checked one and wec.wave's are one."""
+    from flexfmu.core import vec3
+    from flexfmu.reframe import kernels, kernels_numpy
+    from flexfmu.wec import wave
+
+    rng = np.random.default_rng(5)
+    for th in [0.0, 1e-12, 5e-5, 1e-4, 2e-4, 1e-3, 0.3, 1.0, 2.5, np.pi, 6.0]:
+        lam = rng.normal(size=3)
+        phi = th * lam / np.linalg.norm(lam)
+        R_ref = Rotation.from_rotvec(phi).as_matrix()
+        R_vec3 = vec3.rodrigues(phi)
+        R_np = kernels_numpy._rodrigues(phi)
+        R_nb = np.empty(9)
+        kernels._rod9(phi, R_nb)
+        for R in (R_vec3, R_np, R_nb.reshape(3, 3), rotation_matrix(phi).T):
+            np.testing.assert_allclose(R, R_ref, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(R_np, R_vec3, rtol=0, atol=4e-16)
+        assert np.array_equal(skew(phi), vec3.skew(phi)) and wave._skew is vec3.skew
+
+
 def test_rotvec_from_matrix_roundtrip_incl_near_pi():
     rng = np.random.default_rng(3)
     thetas = [0.0, 1e-15, 1e-9, 1e-4, 1.0, 3.0, np.pi - 1e-6, np.pi - 1e-10, np.pi]

@@ -60,8 +60,8 @@ def spurious_stretch(point_position, rigid_length):
 # --------------------------------------------------------------------------- 1. RK4 limit
 def test_rk4_limit_growth_above_two_sqrt_two_and_refusal(rod):
     """The highest undamped mode grows per step by |R(i dt omega_max)|: just below 2 sqrt(2) it decays,
-    just above it grows.  The guard sits in advance_steps / run; the bypass calls the step kernel behind
-    it, ``ReframeIntegrator._consistent_steps``, directly.  Through the public API dt above the limit is
+    just above it grows.  The guard sits in advance_steps / run; advance_steps(check_stability=False)
+    steps past it.  Through the public API dt above the limit is
     refused naming dt and the allowed range."""
     basis = modal_basis(rod, 3, damping_ratio=0.0)
     integ = ReframeIntegrator(rod, basis, scheme="consistent")
@@ -72,7 +72,7 @@ def test_rk4_limit_growth_above_two_sqrt_two_and_refusal(rod):
     for y in (2.75, 2.80, 2.85, 2.90):
         q0 = np.array([0.0, 0.0, 1e-7])
         s0 = integ.initial_state(q0=q0)
-        s = integ._consistent_steps(s0, y / w_max, 20, integ.prepare_loads(None))
+        s = integ.advance_steps(s0, y / w_max, 20, check_stability=False)
         amp = lambda st: math.hypot(st.eta[nm - 1], st.eta[-1] / w_max)  # noqa: E731
         growth[y] = (amp(s) / amp(s0)) ** (1 / 20)
         assert growth[y] == pytest.approx(rk4_amplification(y), rel=1e-4)

@@ -69,6 +69,7 @@ from __future__ import annotations
 import numpy as np
 
 from flexfmu.errors import ParameterError
+from flexfmu.core.vec3 import skew as _skew_unchecked
 
 __all__ = [
     "skew",
@@ -121,10 +122,7 @@ def skew(v) -> np.ndarray:
     ``[[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]``; any frame (the matrix has
     the components of ``v`` in whatever frame ``v`` is given).
     """
-    v = _vec3(v, "v")
-    return np.array([[0.0, -v[2], v[1]],
-                     [v[2], 0.0, -v[0]],
-                     [-v[1], v[0], 0.0]])
+    return _skew_unchecked(_vec3(v, "v"))
 
 
 def paper_skew(v) -> np.ndarray:

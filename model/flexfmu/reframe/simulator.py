@@ -1,3 +1,5 @@
+# Over 500 lines on purpose: one FMU's configuration, set-up, internal-step choice, step, outputs and their
+# failure diagnostics, which share the held inputs and rates; the integrator and the model size live elsewhere.
 """ReframeBody: the reframe integrator with named inputs and outputs (what ReframeBody.fmu wraps).
 
 Inputs are held over each communication step (zero-order hold); the step is split into equal
@@ -46,9 +48,10 @@ import numpy as np
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_bool, require_real, require_str, round_down, shown)
 from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
-from flexfmu.sizing.model_size import auto_basis
+from flexfmu.sizing.solid import BasisChoice, auto_basis
 from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.models import load_model
+from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, ReframeIntegrator, ReframeState
 
 _INF = math.inf             # a module constant: cheaper than math.inf on the per-step path
@@ -76,6 +79,15 @@ def output_values(outputs) -> np.ndarray:
              outputs.point_velocity[..., 0, :], outputs.point_acceleration[..., 0, :],
              outputs.point_acceleration_rigid[..., 0, :], np.asarray(outputs.max_elastic_displacement)[..., None]]
     return np.concatenate(parts, axis=-1)
+
+
+def _output_columns(nf: int) -> np.ndarray:
+    """Where the OUTPUT_NAMES are in the integrator's output vector for one output point."""
+    layout = output_layout(nf, 1)
+    point = layout.points.start     # per point: position, velocity, acceleration, then their rigid parts
+    return np.r_[layout.frame_origin, layout.frame_origin_velocity, layout.quaternion, layout.omega,
+                 layout.alpha, layout.com_position, layout.com_velocity, point:point + 9, point + 15:point + 18,
+                 layout.max_elastic_displacement]
 
 
 @dataclass(frozen=True)
@@ -136,7 +148,7 @@ def _structure(model: str):
 @lru_cache(maxsize=4)
 def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme: str, f_max=None, tolerance=None,
                 load_node=None, output_node=None):
-    """(integrator, messages): model, modes and integrator set-up, shared by instances (``advance`` does not
+    """(integrator, BasisChoice): model, modes and integrator set-up, shared by instances (``advance`` does not
     touch its state).  f_max, tolerance, load_node only for n_flexible_modes = -1 (None otherwise)."""
     require(scheme in SCHEMES, "scheme", f"got {scheme!r}", " | ".join(SCHEMES))
     require(np.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0, "damping_ratio",
@@ -145,19 +157,17 @@ def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme:
     require(isinstance(n_flexible_modes, (int, np.integer)) and -1 <= n_flexible_modes <= structure.n_dof - 6,
             "n_flexible_modes", f"got {n_flexible_modes!r}",
             f"-1 (choose from f_max, tolerance) or 0 .. {structure.n_dof - 6}")
-    basis, msgs = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node, output_node)
-    return ReframeIntegrator(structure, basis, scheme=scheme), msgs
+    choice = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node, output_node)
+    return ReframeIntegrator(structure, choice.basis, scheme=scheme), choice
 
 
 @lru_cache(maxsize=4)
 def _basis(model: str, n_flexible_modes: int, damping_ratio: float, f_max, tolerance, load_node, output_node=None):
-    """(basis, messages), shared by the schemes."""
+    """The basis and its messages (a BasisChoice; none for a given n_flexible_modes), shared by the schemes."""
     structure = _structure(model)
     if n_flexible_modes == -1:
-        basis, msgs = auto_basis(structure, f_max, tolerance, damping_ratio, load_node, output_node)
-    else:
-        basis, msgs = modal_basis(structure, n_flexible_modes, damping_ratio), []
-    return basis, tuple(msgs)
+        return auto_basis(structure, f_max, tolerance, damping_ratio, load_node, output_node)
+    return BasisChoice(modal_basis(structure, n_flexible_modes, damping_ratio))
 
 
 def _smallest_inertia(integ) -> float:
@@ -187,11 +197,11 @@ class ReframeBodySimulator:
             structure = _structure(c.model)
             load_node, output_node = (int(np.argmin(np.linalg.norm(structure.nodes - np.array(p), axis=1))) for p in (
                 (c.load_point_x, c.load_point_y, c.load_point_z), (c.output_point_x, c.output_point_y, c.output_point_z)))
-        self.integrator, msgs = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme,
-                                            c.f_max if auto else None, c.tolerance if auto else None, load_node,
-                                            output_node)
+        self.integrator, self.model_choice = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme,
+                                                         c.f_max if auto else None, c.tolerance if auto else None,
+                                                         load_node, output_node)
         integ = self.integrator
-        self.messages.extend(msgs)
+        self.messages.extend(self.model_choice.messages)
         omega_max = integ.data.omega_max
         self.stability_limit = RK4_STABILITY_LIMIT / omega_max if omega_max > 0 else math.inf
         limit = self.stability_limit if integ.stability_limited else math.inf
@@ -240,9 +250,7 @@ class ReframeBodySimulator:
         self._accepts_moment = rotational
         self._loads = integ.prepare_loads(load)
         self._points = integ.point_indices([(c.output_point_x, c.output_point_y, c.output_point_z)])
-        nf = integ.data.nf
-        o = 23 + 2 * nf                 # flexfmu.reframe.integrator.ReframeIntegrator.output_vector layout, one point
-        self._columns = np.r_[0:22, o:o + 9, o + 15:o + 18, 22 + 2 * nf]
+        self._columns = _output_columns(integ.data.nf)
         self.state = integ.initial_state(v0=(c.v0_x, c.v0_y, c.v0_z), omega0=(c.omega0_1, c.omega0_2, c.omega0_3))
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
         # (state, |omega|, |alpha|, force, moment) of a state with the inputs its step held (see _rates)

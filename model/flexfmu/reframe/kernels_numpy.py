@@ -1,0 +1,376 @@
+"""The numpy versions of the reframe kernels (:mod:`flexfmu.reframe.kernels`): the reference the compiled
+ones are checked against (tests/test_performance_equivalence.py), and the kernels themselves when numba is
+not installed.  Import the kernels from flexfmu.reframe.kernels, which picks the version.
+
+Never compiled: numba would turn their small np.dot calls into BLAS calls.  The small scalar helpers
+they share with the compiled kernels are the compiled ones (flexfmu.reframe.kernels)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from flexfmu.reframe.layout import param_layout
+from flexfmu.reframe.kernels import (
+    N_RIGID,
+    NOT_COMPUTED,
+    _py,
+    _quaternion,
+    _rate_coefficient,
+    _rodrigues_into,
+    _solve3,
+    max_node_norm_numpy,
+)
+
+
+@_py
+def _cross(a, b):
+    r = np.empty(3)
+    r[0] = a[1] * b[2] - a[2] * b[1]
+    r[1] = a[2] * b[0] - a[0] * b[2]
+    r[2] = a[0] * b[1] - a[1] * b[0]
+    return r
+
+
+@_py
+def _rodrigues(phi):
+    """exp(skew(phi)) as a (3, 3) array (numpy kernels)."""
+    R = np.empty(9)
+    _rodrigues_into(phi, R)
+    return R.reshape(3, 3)
+
+
+@_py
+def _rotvec_rate(phi, w):
+    th = math.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
+    pxw = _cross(phi, w)
+    return w + 0.5 * pxw + _rate_coefficient(th) * _cross(phi, pxw)
+
+
+@_py
+def _blocks(P, nf, q):
+    """A(q), J(q), D(q) of the generalised mass matrix [[m I, A, 0], [A^T, J, D], [0, D^T, I]]."""
+    lay = param_layout(nf)
+    J = P[lay.J0:lay.J0 + 9].copy().reshape(3, 3)
+    if nf == 0:
+        return np.zeros((3, 3)), J, np.zeros((3, 0))
+    A = np.dot(q, P[lay.A:lay.B].reshape(nf, 9)).reshape(3, 3)
+    Cq = np.dot(q, P[lay.C:lay.D].reshape(nf, nf * 9)).reshape(nf, 9)
+    J += (np.dot(q, P[lay.B:lay.C].reshape(nf, 9)) + np.dot(q, Cq)).reshape(3, 3)
+    D = np.dot(q, P[lay.D:lay.k].reshape(nf, 3 * nf)).reshape(3, nf)
+    return A, J, D
+
+
+@_py
+def _solve_mass(m, A, J, D, b1, b2, b3):
+    """Solve [[m I, A, 0], [A^T, J, D], [0, D^T, I]] [x1; x2; x3] = [b1; b2; b3] (Schur complement on x2)."""
+    nf = D.shape[1]
+    S = J - np.dot(A.T, A) / m
+    r = b2 - np.dot(A.T, b1) / m
+    if nf:
+        S -= np.dot(D, D.T)
+        r -= np.dot(D, b3)
+    x2 = _solve3(S, r)
+    x1 = (b1 - np.dot(A, x2)) / m
+    if nf:
+        x3 = b3 - np.dot(D.T, x2)
+    else:
+        x3 = b3.copy()
+    return x1, x2, x3
+
+
+@_py
+def _dTdq(P, nf, v, w, q, qd):
+    """dT/dq_j = v^T A_j w + w^T B_j w + sum_k q_k w^T C_jk w + w^T D_j qdot."""
+    lay = param_layout(nf)
+    t1 = np.dot(np.dot(P[lay.A:lay.B].reshape(nf * 3, 3), w).reshape(nf, 3), v)
+    t2 = 0.5 * np.dot(np.dot(P[lay.B:lay.C].reshape(nf * 3, 3), w).reshape(nf, 3), w)
+    Wc = np.dot(np.dot(P[lay.C:lay.D].reshape(nf * nf * 3, 3), w).reshape(nf * nf, 3), w).reshape(nf, nf)
+    t3 = np.dot(Wc, q)
+    t4 = np.dot(np.dot(P[lay.D:lay.k].reshape(nf * 3, nf), qd).reshape(nf, 3), w)
+    return t1 + t2 + t3 + t4
+
+
+@_py
+def _loads(LP, nf, deformed, sv, R, q):
+    """Global force sum, body moment about the frame point, flexible generalised forces of one stage."""
+    F_g = np.zeros(3)
+    N_b = np.zeros(3)
+    Q = np.zeros(nf)
+    stride = 5 + 6 * nf
+    for l in range(sv.shape[0]):
+        base = l * stride
+        f = sv[l, 0:3]
+        mo = sv[l, 3:6]
+        if LP[base] != 0.0:            # follower: body components
+            f_b = f.copy()
+            m_b = mo.copy()
+            F_g += np.dot(R, f)
+        else:
+            f_b = np.dot(R.T, f)
+            m_b = np.dot(R.T, mo)
+            F_g += f
+        arm = LP[base + 2:base + 5].copy()
+        if nf:
+            PhiT = LP[base + 5:base + 5 + 3 * nf].reshape(3, nf)
+            if deformed:
+                arm += np.dot(PhiT, q)
+            Q += np.dot(PhiT.T, f_b)
+        N_b += _cross(arm, f_b)
+        if LP[base + 1] != 0.0:
+            N_b += m_b
+            if nf:
+                Q += np.dot(LP[base + 5 + 3 * nf:base + 5 + 6 * nf].reshape(3, nf).T, m_b)
+    return F_g, N_b, Q
+
+
+@_py
+def _geometric_force(G, nf, w, q):
+    """-(sum_ab X_ab G_ab) q with X = skew(w) skew(w) = w w^T - |w|^2 I (the geometric-stiffness hook;
+    G: (9 nf nf,) = (3, 3, nf, nf) row-major, body frame)."""
+    X = np.outer(w, w)
+    ww = np.dot(w, w)
+    for a in range(3):
+        X[a, a] -= ww
+    Kg = np.dot(X.reshape(9), G.reshape(9, nf * nf)).reshape(nf, nf)
+    return -np.dot(Kg, q)
+
+
+@_py
+def _rhs(P, LP, G, nf, deformed, sv, Rn, z, split):
+    """Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q] (the consistent scheme, flexfmu.reframe.integrator).
+
+    split=True (exponential scheme): N(z) = z' - L z instead, with L z = [0 (12), p_q, -k q - c p_q]
+    the flexible modes' linear oscillator block, computed without forming L z (no k q cancellation):
+    q' - p_q = -D(q)^T w and p_q' + k q + c p_q = dT/dq + c D^T w + Q."""
+    m = P[0]
+    lay = param_layout(nf)
+    phi = z[0:3]
+    Rrel = _rodrigues(phi)
+    R = np.dot(Rn, Rrel)
+    p_b = np.dot(R.T, z[6:9])
+    h = np.dot(Rrel.T, z[9:12])
+    q = z[12:12 + nf]
+    pq = z[12 + nf:]
+    A, J, D = _blocks(P, nf, q)
+    v, w, qd = _solve_mass(m, A, J, D, p_b, h, pq)
+    F_g, N_b, Q = _loads(LP, nf, deformed, sv, R, q)
+    out = np.empty(z.shape[0])
+    out[0:3] = _rotvec_rate(phi, w)
+    out[3:6] = np.dot(R, v)
+    out[6:9] = F_g
+    out[9:12] = np.dot(Rrel, N_b - _cross(v, p_b))
+    if nf:
+        if split:
+            Dtw = np.dot(D.T, w)
+            out[12:12 + nf] = -Dtw
+            out[12 + nf:] = _dTdq(P, nf, v, w, q, qd) + P[lay.c:lay.A6] * Dtw + Q
+        else:
+            out[12:12 + nf] = qd
+            out[12 + nf:] = _dTdq(P, nf, v, w, q, qd) - P[lay.k:lay.c] * q - P[lay.c:lay.A6] * qd + Q
+        if G.shape[0]:
+            out[12 + nf:] += _geometric_force(G, nf, w, q)
+    return out
+
+
+@_py
+def _expmap(EX, nf, k, z, s):
+    """[s z_frame; M_j (q_j, p_j) per mode]: matrix k of the exponential scheme's coefficients EX (nf, 6,
+    2, 2 row-major) on the flexible pairs, the scalar s (its value for L = 0) on the 12 frame components."""
+    X = EX.reshape(nf, 6, 2, 2)
+    out = np.empty(z.shape[0])
+    out[0:12] = s * z[0:12]
+    q = z[12:12 + nf]
+    p = z[12 + nf:]
+    out[12:12 + nf] = X[:, k, 0, 0] * q + X[:, k, 0, 1] * p
+    out[12 + nf:] = X[:, k, 1, 0] * q + X[:, k, 1, 1] * p
+    return out
+
+
+@_py
+def _step(P, LP, G, EX, nf, deformed, sv, dt, y):
+    """One step of y in place (flexfmu.reframe.integrator): classical RK4 (EX empty, scheme "consistent") or the
+    exponential ETD-RK4 (EX = its coefficients, scheme "exponential"); False if not finite."""
+    m = P[0]
+    lay = param_layout(nf)
+    A6 = P[lay.A6:lay.A6inv].reshape(6, 6)
+    A6inv = P[lay.A6inv:lay.com].reshape(6, 6)
+    nm = N_RIGID + nf
+    Rn = y[3:12].copy().reshape(3, 3)
+    eta = y[12:]
+    vw = np.dot(A6, eta[nm:nm + N_RIGID])
+    v = vw[0:3]
+    w = vw[3:6]
+    q = eta[N_RIGID:nm].copy()
+    qd = eta[nm + N_RIGID:]
+    A, J, D = _blocks(P, nf, q)
+    z0 = np.zeros(12 + 2 * nf)
+    z0[6:9] = np.dot(Rn, m * v + np.dot(A, w))
+    h = np.dot(A.T, v) + np.dot(J, w)
+    if nf:
+        h += np.dot(D, qd)
+        z0[12 + nf:] = np.dot(D.T, w) + qd
+    z0[9:12] = h
+    z0[12:12 + nf] = q
+    if EX.shape[0] == 0:
+        k1 = _rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, False)
+        k2 = _rhs(P, LP, G, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k1, False)
+        k3 = _rhs(P, LP, G, nf, deformed, sv[1], Rn, z0 + 0.5 * dt * k2, False)
+        k4 = _rhs(P, LP, G, nf, deformed, sv[2], Rn, z0 + dt * k3, False)
+        z = z0 + (dt / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    else:
+        # Cox-Matthews ETD-RK4 (flexfmu.reframe.schemes.exponential_coefficients): E1 = e^{hL}, E2 = e^{hL/2},
+        # A2 = h/2 phi1(hL/2), B1, B2, B4 = h (phi1 - 3 phi2 + 4 phi3), h (2 phi2 - 4 phi3), h (4 phi3 - phi2).
+        E2z0 = _expmap(EX, nf, 1, z0, 1.0)
+        Nu = _rhs(P, LP, G, nf, deformed, sv[0], Rn, z0, True)
+        a = E2z0 + _expmap(EX, nf, 2, Nu, 0.5 * dt)
+        Na = _rhs(P, LP, G, nf, deformed, sv[1], Rn, a, True)
+        b = E2z0 + _expmap(EX, nf, 2, Na, 0.5 * dt)
+        Nb = _rhs(P, LP, G, nf, deformed, sv[1], Rn, b, True)
+        c = _expmap(EX, nf, 1, a, 1.0) + _expmap(EX, nf, 2, 2.0 * Nb - Nu, 0.5 * dt)
+        Nc = _rhs(P, LP, G, nf, deformed, sv[2], Rn, c, True)
+        z = (_expmap(EX, nf, 0, z0, 1.0) + _expmap(EX, nf, 3, Nu, dt / 6.0) + _expmap(EX, nf, 4, Na + Nb, dt / 3.0)
+             + _expmap(EX, nf, 5, Nc, dt / 6.0))
+    Rrel = _rodrigues(z[0:3])
+    R = np.dot(Rn, Rrel)
+    R = 1.5 * R - 0.5 * np.dot(np.dot(R, R.T), R)          # one Newton step of the polar decomposition
+    q = z[12:12 + nf].copy()
+    A, J, D = _blocks(P, nf, q)
+    v, w, qd = _solve_mass(m, A, J, D, np.dot(R.T, z[6:9]), np.dot(Rrel.T, z[9:12]), z[12 + nf:].copy())
+    vw = np.empty(6)
+    vw[0:3] = v
+    vw[3:6] = w
+    y[0:3] += z[3:6]
+    y[3:12] = R.reshape(9)
+    y[12:12 + N_RIGID] = 0.0
+    y[12 + N_RIGID:12 + nm] = q
+    y[12 + nm:12 + nm + N_RIGID] = np.dot(A6inv, vw)
+    y[12 + nm + N_RIGID:] = qd
+    for i in range(y.shape[0]):
+        if not math.isfinite(y[i]):
+            return False
+    return True
+
+
+@_py
+def reframe_steps(P, LP, G, EX, nf, deformed, SV, held, t, dt, n, y):
+    """n steps from state y at time t.  G: geometric stiffness (9 nf^2,) or empty; EX: exponential-scheme
+    coefficients for this dt (24 nf,) or empty (RK4, the consistent scheme).  SV: (n, 3, n_loads, 6), or
+    (1, ...) with held=True (the same load values every step).  Returns (new y, new t, steps done,
+    status): status 0 ok, 1 the loads of step ``steps done`` are not finite, 2 that step's state is not
+    finite."""
+    y = y.copy()
+    for k in range(n):
+        sv = SV[0] if held else SV[k]
+        for v in sv.ravel():
+            if not math.isfinite(v):
+                return y, t, k, 1
+        if not _step(P, LP, G, EX, nf, deformed, sv, dt, y):
+            return y, t + dt, k, 2
+        t = t + dt
+    return y, t, n, 0
+
+
+@_py
+def consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
+    """:func:`reframe_steps` of the consistent scheme without geometric stiffness."""
+    return reframe_steps(P, LP, np.zeros(0), np.zeros(0), nf, deformed, SV, held, t, dt, n, y)
+
+
+@_py
+def consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
+    """:func:`reframe_outputs` without geometric stiffness."""
+    return reframe_outputs(P, LP, np.zeros(0), nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr)
+
+
+@_py
+def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
+    """All outputs of state y with load values sv (n_loads, 6) at its time (G: as :func:`reframe_steps`).
+    PP: output points, one row
+    [X - c (3), Phi rows (3*nf)] each.  Returns [frame origin 3, frame origin velocity 3, quaternion 4,
+    omega 3, alpha 3, com position 3, com velocity 3, q nf, qdot nf, max elastic displacement 1, then per
+    point position, velocity, acceleration (full), position, velocity, acceleration (rigid) 6 x 3].
+    ``order`` empty: the max elastic displacement is not searched (NOT_COMPUTED = -1 in its place)."""
+    m = P[0]
+    lay = param_layout(nf)
+    A6 = P[lay.A6:lay.A6inv].reshape(6, 6)
+    com = P[lay.com:lay.end]
+    nm = N_RIGID + nf
+    pos = y[0:3]
+    R = y[3:12].copy().reshape(3, 3)
+    eta = y[12:]
+    vw = np.dot(A6, eta[nm:nm + N_RIGID])
+    v = vw[0:3].copy()
+    w = vw[3:6].copy()
+    q = eta[N_RIGID:nm].copy()
+    qd = eta[nm + N_RIGID:].copy()
+    A, J, D = _blocks(P, nf, q)
+    p_b = m * v + np.dot(A, w)
+    h = np.dot(A.T, v) + np.dot(J, w)
+    if nf:
+        h += np.dot(D, qd)
+    F_g, N_b, Q = _loads(LP, nf, deformed, sv, R, q)
+    F_b = np.dot(R.T, F_g)
+    b1 = F_b - _cross(w, p_b)
+    b2 = N_b - _cross(w, h) - _cross(v, p_b)
+    b3 = np.zeros(nf)
+    if nf:
+        b3 = _dTdq(P, nf, v, w, q, qd) - P[lay.k:lay.c] * q - P[lay.c:lay.A6] * qd + Q
+        if G.shape[0]:
+            b3 = b3 + _geometric_force(G, nf, w, q)
+        # minus Mdot xi: Mm is quadratic in q, d/dt along qdot: A(qd), J'(q; qd), D(qd)
+        Ad = np.dot(qd, P[lay.A:lay.B].reshape(nf, 9)).reshape(3, 3)
+        Cqd = np.dot(qd, P[lay.C:lay.D].reshape(nf, nf * 9)).reshape(nf, 9)
+        Cq = np.dot(q, P[lay.C:lay.D].reshape(nf, nf * 9)).reshape(nf, 9)
+        Jd = (np.dot(qd, P[lay.B:lay.C].reshape(nf, 9)) + np.dot(qd, Cq) + np.dot(q, Cqd)).reshape(3, 3)
+        Dd = np.dot(qd, P[lay.D:lay.k].reshape(nf, 3 * nf)).reshape(3, nf)
+        b1 = b1 - np.dot(Ad, w)
+        b2 = b2 - (np.dot(Ad.T, v) + np.dot(Jd, w) + np.dot(Dd, qd))
+        b3 = b3 - np.dot(Dd.T, w)
+    vdot, alpha, qdd = _solve_mass(m, A, J, D, b1, b2, b3)
+    a_o = vdot + _cross(w, v)
+    n_p = PP.shape[0]
+    out = np.empty(23 + 2 * nf + 18 * n_p)
+    out[0:3] = pos - np.dot(R, com)
+    out[3:6] = np.dot(R, v + _cross(w, -com))
+    out[6:10] = _quaternion(R)
+    out[10:13] = w
+    out[13:16] = alpha
+    out[16:19] = pos
+    vc = m * v
+    if nf:
+        vc = vc + np.dot(A, w)
+    out[19:22] = np.dot(R, vc) / m
+    out[22:22 + nf] = q
+    out[22 + nf:22 + 2 * nf] = qd
+    # an empty node order skips the whole-mesh search (the one output that is not O(modes^2)): NOT_COMPUTED
+    out[22 + 2 * nf] = max_node_norm_numpy(Psi, N_RIGID, dpn, order, bc, br, sc, sr, q) if order.shape[0] \
+        else NOT_COMPUTED
+    o = 23 + 2 * nf
+    for k in range(n_p):
+        X = PP[k, 0:3].copy()
+        if nf:
+            Phk = PP[k, 3:3 + 3 * nf].reshape(3, nf)
+            u = np.dot(Phk, q)
+            ud = np.dot(Phk, qd)
+            udd = np.dot(Phk, qdd)
+        else:
+            u = np.zeros(3)
+            ud = np.zeros(3)
+            udd = np.zeros(3)
+        yk = X + u
+        b = o + 18 * k
+        out[b:b + 3] = pos + np.dot(R, yk)
+        out[b + 3:b + 6] = np.dot(R, v + _cross(w, yk) + ud)
+        out[b + 6:b + 9] = np.dot(R, a_o + _cross(alpha, yk) + _cross(w, _cross(w, yk)) + 2.0 * _cross(w, ud) + udd)
+        out[b + 9:b + 12] = pos + np.dot(R, X)
+        out[b + 12:b + 15] = np.dot(R, v + _cross(w, X))
+        out[b + 15:b + 18] = np.dot(R, a_o + _cross(alpha, X) + _cross(w, _cross(w, X)))
+    return out
+
+
+# =========================================================================== compiled (numba) versions
+# The same computations as the numpy functions above, written as explicit loops over preallocated
+# arrays (numba turns np.dot on 3-vectors into BLAS calls and every temporary into an allocation,
+# which cost more than the arithmetic at these sizes).  3x3 matrices are row-major 9-vectors, D(q) is
+# row-major (3, nf).  Used when numba is installed; tests check they match the numpy versions.
