@@ -154,3 +154,16 @@ def test_bad_parameters_are_named():
     dyn = FFRBeamDynamics(model, modes, 0.01, 0.45, 0.04)
     with pytest.raises(ParameterError, match="step size"):
         dyn.step(dyn.initial_state(), 0.0, ZERO, ZERO, BaseMotion())
+
+
+def test_step_map_memo_is_bounded():
+    """Inputs that vary every step: the memo of step maps holds MAP_MEMO_SIZE entries, then starts afresh."""
+    from flexfmu.ffr.dynamics import MAP_MEMO_SIZE
+    dyn = _dynamics(load_scene("spatial_double_L"), n_el=2, n_modes=3)
+    for i in range(MAP_MEMO_SIZE):
+        dyn.fast_maps(1e-3 * (i + 1), BaseMotion())
+    assert len(dyn._fast_cache) == MAP_MEMO_SIZE
+    dyn.fast_maps(1e-3, BaseMotion())                      # a hit keeps every entry
+    assert len(dyn._fast_cache) == MAP_MEMO_SIZE
+    dyn.fast_maps(1.0, BaseMotion())                       # a new key when full: cleared, then stored
+    assert len(dyn._fast_cache) == 1

@@ -197,3 +197,13 @@ def test_bounded_cache_starts_afresh_when_full():
     assert dict(memo) == {0: 0, 1: 10, 2: 4}
     memo[3] = 9                                   # a fourth key: the memo starts afresh
     assert dict(memo) == {3: 9}
+
+
+def test_basis_cache_key_covers_every_solver_module():
+    """A change in any module that computes a basis (or picks its path) gives new cache keys."""
+    from flexfmu.core import cache as model_cache
+    from flexfmu.linalg import cutoffs, lanczos, modal
+    from flexfmu.linalg import modal_basis as mbm
+    digest = mbm._source_digest()
+    for module in (mbm, lanczos, modal, cutoffs):
+        assert model_cache.file_digest(module.__file__) in digest

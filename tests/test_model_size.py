@@ -61,6 +61,7 @@ def test_double_l_choice_frequencies_and_static_deflection():
     sim.set_inputs(F_x=0.4, F_y=-1.2, F_z=2.0)
     sim.state = sim.dynamics.static_response(np.array([0.4, -1.2, 2.0]), np.zeros(3), BaseMotion())
     choice = sim.model_choice
+    assert sim.messages == list(choice.messages) == [choice.message()]      # the typed choice is what is logged
     chosen_hz = sim.dynamics.modes.frequencies_hz
     in_band = chosen_hz[chosen_hz < 300.0]
     assert len(in_band) == len(below) == 5 == choice.truncation.n_below_f_max     # every mode below f_max ...
@@ -419,3 +420,14 @@ def test_simulator_maps_equal_term_by_term_formulas(fields):
             a, b = vector(fast, group), vector(ref, group)
             assert np.linalg.norm(a - b) <= 1e-10 * np.linalg.norm(b), group
         assert fast["elastic_energy"] == pytest.approx(ref["elastic_energy"], rel=1e-10)
+
+
+def test_model_size_keeps_every_name_of_its_parts():
+    """flexfmu.sizing.model_size re-exports the functions and classes of the modules it was split into."""
+    from flexfmu.sizing import beam, common, mesh, model_size, solid
+    for part in (beam, common, mesh, solid):
+        for name, value in vars(part).items():
+            if callable(value) and getattr(value, "__module__", None) == part.__name__:
+                assert getattr(model_size, name) is value, (part.__name__, name)
+    for name in ("SAFETY_FACTOR", "TOLERANCE_RANGE", "MAX_ELEMENTS_PER_SEGMENT", "MAX_AUTO_MODES", "MAX_BAND_MODES"):
+        assert hasattr(model_size, name)

@@ -53,6 +53,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from flexfmu.core.blas import single_thread
+from flexfmu.core.cache import BoundedCache
 from flexfmu.ffr.assembly import BeamModel
 from flexfmu.ffr.beam_element import local_shape_functions
 from flexfmu.errors import require
@@ -67,6 +68,9 @@ INTEGRATORS = ("exact", "rk4")
 #: Classical RK4 is stable for h |lambda| up to 2 sqrt(2) = 2.83 on the imaginary axis (undamped modes) and
 #: 2.79 on the negative real axis; 2.8 is the limit used for lightly damped modes (as flexfmu.reframe.integrator's).
 RK4_STABILITY_LIMIT = 2.8
+#: Step and output maps memoised per instance (keys: step size and held base motion): inputs that vary every
+#: step would grow the memo without bound, so it starts afresh when it holds this many.
+MAP_MEMO_SIZE = 65
 
 
 @dataclass
@@ -208,8 +212,8 @@ class FFRBeamDynamics:
         if self.geometric_stiffening:
             # G_X_hat (3, 3, m, m) per unit X_ab, G_a0_hat (3, m, m) per unit a0_a (kg, kg/m)
             self.G_X_hat, self.G_a0_hat = inertial_geometric_stiffness(model).modal(Phi)
-        self._cache: dict = {}
-        self._fast_cache: dict = {}
+        self._cache = BoundedCache(MAP_MEMO_SIZE)
+        self._fast_cache = BoundedCache(MAP_MEMO_SIZE)
 
     # ------------------------------------------------------------ equations of motion
     def _matrices(self, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:
@@ -269,8 +273,6 @@ class FFRBeamDynamics:
             P = I + hA @ (I / 2 + hA @ (I / 6 + hA / 24))     # I + hA/2 + (hA)^2/6 + (hA)^3/24
             Ad = I + hA @ P
             Bd = h * P[:, m:]                                 # h P B with B = [0; I]
-            if len(self._cache) > 64:
-                self._cache.clear()
             self._cache[key] = (Ad, Bd)
             return Ad, Bd
         K_eff, C_eff = self._matrices(base)
@@ -284,8 +286,6 @@ class FFRBeamDynamics:
             E = sla.expm(A[:, :] * h)
         Ad = E[:2 * m, :2 * m]
         Bd = E[:2 * m, 2 * m + 1:]
-        if len(self._cache) > 64:      # inputs that vary every step: keep memory bounded
-            self._cache.clear()
         self._cache[key] = (Ad, Bd)
         return Ad, Bd
 
@@ -395,8 +395,6 @@ class FFRBeamDynamics:
         else:
             Ad, Bd = self._transition(float(h), base)
             Bu, b0 = Bd @ Fm, -(Bd @ p)
-        if len(self._fast_cache) > 64:
-            self._fast_cache.clear()
         hit = self._fast_cache[key] = (Ad, Bu, b0, C, y0)
         return hit
 

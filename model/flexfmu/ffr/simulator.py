@@ -1,3 +1,5 @@
+# Over 500 lines on purpose: one FMU's configuration, model set-up, step, outputs and their failure diagnostics,
+# which share the cached maps and the held inputs; the model size itself lives in flexfmu.sizing.
 """FFRBeam: a scene's clamped structure in time, with named inputs and outputs.
 
 The FMU (flexfmu.fmi.registry, flexfmu.fmi.plumbing) is a thin shell over this class: the variable names here are the
@@ -29,11 +31,13 @@ from flexfmu.ffr.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_m
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_str, round_down, shown)
 from flexfmu.errors import DivergenceError, FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
-from flexfmu.ffr.dynamics import RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
+from flexfmu.core.cache import BoundedCache
+from flexfmu.ffr.dynamics import MAP_MEMO_SIZE, RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.linalg.modal import solve_modes
-from flexfmu.sizing.model_size import (MAX_ELEMENTS_PER_SEGMENT, SAFETY_FACTOR, ModelChoice, StaticCorrection, TruncationChoice,
-                                check_band, choose_elements_per_segment, ffr_load_patterns, ffr_static_correction,
-                                ffr_truncation_errors)
+from flexfmu.sizing.beam import (ModelChoice, StaticCorrection, TruncationChoice, ffr_load_patterns,
+                                 ffr_static_correction, ffr_truncation_errors)
+from flexfmu.sizing.common import SAFETY_FACTOR
+from flexfmu.sizing.mesh import MAX_ELEMENTS_PER_SEGMENT, check_band, choose_elements_per_segment
 from flexfmu.ffr.scene import check_arc_length, load_scene
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew
@@ -116,6 +120,28 @@ class _Built:
     frequencies_hz: np.ndarray
     choice: ModelChoice
     correction: StaticCorrection | None
+
+
+@dataclass(frozen=True, slots=True)
+class _StepMaps:
+    """The affine maps of one step size and held base motion (FFRBeamSimulator._maps):
+
+        x+ = Ad x + Bu u[:9] (+ b0),     y = Cx x + Cu u[:9] + y0 (+ the load-dependent cross terms, energy)
+
+    Ad, Bu, b0: None for the output maps only (h = None); b0 also None when zero.  energy: the static
+    correction's strain energy as (Q, linear, constant) in u[:9], or None.  substeps: RK4's (n_sub, limit,
+    omega_max, h), or None.  wide: the output maps may overflow for a state within the divergence limit
+    (outputs then checked on every read)."""
+
+    Ad: np.ndarray | None
+    Bu: np.ndarray | None
+    b0: np.ndarray | None
+    Cx: np.ndarray
+    Cu: np.ndarray
+    y0: np.ndarray
+    energy: tuple | None
+    substeps: tuple | None
+    wide: bool
 
 
 def _lowest_modes(model, n_wanted: int, f_max: float | None = None):
@@ -231,14 +257,12 @@ class FFRBeamSimulator:
         self.model_choice, self.static_correction = built.choice, built.correction
         #: What the model chose and why (model size, RK4 sub-steps); the FMU logs and clears it.
         self.messages: list[str] = []
-        choice = built.choice
-        if choice.mesh is not None or choice.modes_chosen or choice.static_correction:
-            self.messages.append(choice.message())
+        self.messages.extend(built.choice.messages)
         self.state = self.dynamics.initial_state()
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
         self._u = np.zeros(len(INPUT_NAMES))          # the inputs as a vector, INPUT_NAMES order
         self._k = self.dynamics.stiffness
-        self._map_cache: dict = {}
+        self._map_cache = BoundedCache(MAP_MEMO_SIZE)
         self._x, self._x_state = None, None
         self._n_sub = None                             # RK4 sub-steps of the last step (logged when it changes)
         # With geometric stiffening K_eff depends on the base acceleration too: the maps are per a0 as well.
@@ -295,8 +319,8 @@ class FFRBeamSimulator:
         return self._held_input_cache
 
     def _maps(self, h):
-        """(Ad, Bu, b0 or None, Cx, Cu, y0, energy terms, RK4 sub-steps) for step h (None: outputs only)
-        and the held base motion, cached: the step and the outputs are then a few matrix-vector products."""
+        """The _StepMaps of step h (None: outputs only) and the held base motion, cached: the step and the
+        outputs are then a few matrix-vector products."""
         key = (h, self._held_input()[0])
         hit = self._map_cache.get(key)
         if hit is None:
@@ -338,10 +362,9 @@ class FFRBeamSimulator:
             ok = False
         if not ok:
             raise self._map_failure(h, base)
-        if len(self._map_cache) > 64:
-            self._map_cache.clear()
-        hit = self._map_cache[key] = (Ad, Bu, b0 if (b0 is not None and b0.any()) else None,
-                                      np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y, energy, sub, wide)
+        hit = self._map_cache[key] = _StepMaps(Ad, Bu, b0 if (b0 is not None and b0.any()) else None,
+                                               np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y, energy, sub,
+                                               wide)
         return hit
 
     def _base_culprit(self) -> str | None:
@@ -452,7 +475,8 @@ class FFRBeamSimulator:
         cached maps)."""
         if not (math.isfinite(step_size) and step_size > 0):     # math: np.isfinite costs ~1 us per call
             require(False, "step_size", f"got {step_size!r}", "> 0 s")
-        Ad, Bu, b0, _, _, _, _, sub, _ = self._maps(float(step_size))
+        maps = self._maps(float(step_size))
+        Ad, Bu, b0, sub = maps.Ad, maps.Bu, maps.b0, maps.substeps
         if sub is not None and sub[0] != self._n_sub:
             self._log_substeps(sub)
         st = self.state
@@ -511,7 +535,8 @@ class FFRBeamSimulator:
 
     def output_vector(self) -> np.ndarray:
         """All outputs at the current time for the current inputs (body frame, SI), OUTPUT_NAMES order."""
-        _, _, _, Cx, Cu, y0, energy, _, wide = self._maps(None)
+        maps = self._maps(None)
+        Cx, Cu, y0, energy = maps.Cx, maps.Cu, maps.y0, maps.energy
         x = self._stacked()
         eta = self.state.eta
         try:
@@ -528,7 +553,7 @@ class FFRBeamSimulator:
                 y[-1] += float(u @ (Q @ u)) + float(linear @ u) + constant
             # finite maps and a state within the divergence limit give finite outputs unless inputs enter
             # (or the maps are wide): then one dot product (~0.3 us), the culprit only on failure
-            if (loaded or energy is not None or wide) and not y.dot(y) < _INF and not np.all(np.isfinite(y)):
+            if (loaded or energy is not None or maps.wide) and not y.dot(y) < _INF and not np.all(np.isfinite(y)):
                 raise self._output_failure(y)
         except ArithmeticError:              # numpy's error mode set to raise: again without it, then checked
             with np.errstate(all="ignore"):
@@ -538,7 +563,8 @@ class FFRBeamSimulator:
     def _output_failure(self, y) -> NonFiniteError:
         """NonFiniteError naming the input that alone makes an output overflow (the outputs are affine in F, M,
         a0 with the base rotation held, the energy quadratic)."""
-        _, _, _, Cx, Cu, y0, energy, _, _ = self._maps(None)
+        maps = self._maps(None)
+        Cx, Cu, energy = maps.Cx, maps.Cu, maps.energy
         eta = self.state.eta
         bad = [OUTPUT_NAMES[i] for i in np.nonzero(~np.isfinite(y))[0]] if y is not None else ["the outputs"]
         scores = {}

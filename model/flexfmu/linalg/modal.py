@@ -15,8 +15,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from flexfmu.errors import require
+from flexfmu.linalg.cutoffs import BEAM_MODES_DENSE_MAX_DOF
 
-DENSE_LIMIT = 1000  # free DOFs up to which the dense solver is used by default
+DENSE_LIMIT = BEAM_MODES_DENSE_MAX_DOF  # free DOFs up to which the dense solver is used by default (why: cutoffs)
 
 
 @dataclass

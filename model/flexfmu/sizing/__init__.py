@@ -1,1 +1,4 @@
-"""Model size for a frequency band and a tolerance, for both sides: mesh, modes, static correction."""
+"""Model size for a frequency band and a tolerance, for both sides: mesh, modes, static correction.
+
+model_size: the equations and every name; common: the truncation estimate both sides use; mesh and beam:
+FFRBeam's mesh, modes and static correction; solid: ReframeBody's modal basis (n_flexible_modes = -1)."""
