@@ -12,15 +12,40 @@ import numpy as np
 import scipy.sparse as sp
 
 
+@dataclass(frozen=True)
+class Provenance:
+    """Where a model came from and how it was read: what export documentation and reports quote.
+
+    source:   the file (or spec such as ``paper_plate``) the model was read from.
+    format:   its format, e.g. "gmsh", "abaqus", "vtu", "nastran", "ansys-full", "npz", "beam-scene".
+    reader:   the libraries (with versions) that read and assembled it.
+    units:    how the file's numbers became SI (e.g. "file in mm, scaled by 1e-3 to m").
+    material: E (Pa), nu, rho (kg/m^3) used in the assembly, when flexfmu assembled the matrices.
+    notes:    anything else a user should know (element types, dropped cells, ...).
+    """
+
+    source: str = ""
+    format: str = ""
+    reader: str = ""
+    units: str = "SI (m, kg, s, N)"
+    material: tuple = ()
+    notes: tuple = ()
+
+
 @dataclass
 class Structure:
     """Undeformed node positions and linear mass / stiffness matrices.
 
-    nodes:          (N, 3) undeformed node coordinates, m, body frame.
-    dofs_per_node:  3 (solids: x, y, z) or 6 (beams: x, y, z, theta_x, theta_y, theta_z).
-    M, K:           (n_dof, n_dof) sparse CSR, DOF order node by node; SI units
-                    (kg, kg m, kg m^2 / N/m, N, N m per rad).
-    name:           free text for reports.
+    nodes:            (N, 3) undeformed node coordinates, m, body frame.
+    dofs_per_node:    3 (solids: x, y, z) or 6 (beams: x, y, z, theta_x, theta_y, theta_z).
+    M, K:             (n_dof, n_dof) sparse CSR, DOF order node by node; SI units
+                      (kg, kg m, kg m^2 / N/m, N, N m per rad).
+    name:             free text for reports.
+    constrained_dofs: sorted DOF indices the model file fixes (ANSYS D, Nastran SPC); M and K still hold
+                      them: a clamped body drops them, a free body ignores them.
+    node_sets:        named node index sets from the file (gmsh physical groups, Abaqus NSET, Nastran
+                      SPC sets, ...), for clamps and interfaces.
+    provenance:       where the model came from (:class:`Provenance`).
     """
 
     nodes: np.ndarray
@@ -29,6 +54,9 @@ class Structure:
     K: sp.csr_matrix
     name: str = ""
     meta: dict = field(default_factory=dict)
+    constrained_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    node_sets: dict = field(default_factory=dict)
+    provenance: Provenance = field(default_factory=Provenance)
 
     @property
     def n_dof(self) -> int:

@@ -63,11 +63,13 @@ def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> 
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
 
 
-def _rewrite_model_description(fmu: Path, info: dict, experiment: dict) -> None:
+def _rewrite_model_description(fmu: Path, info: dict, experiment: dict, documentation: dict | None = None) -> None:
     with zipfile.ZipFile(fmu) as zf:
         members = {name: zf.read(name) for name in zf.namelist()}
     members["modelDescription.xml"] = _complete_model_description(
         members["modelDescription.xml"].decode("utf-8"), info, experiment)
+    for name, text in (documentation or {}).items():
+        members[f"documentation/{name}"] = text.encode("utf-8")
     tmp = fmu.with_suffix(".tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
         for name, data in members.items():
@@ -75,31 +77,44 @@ def _rewrite_model_description(fmu: Path, info: dict, experiment: dict) -> None:
     tmp.replace(fmu)
 
 
-def build(out: Path) -> list[Path]:
+def build_one(name: str, script_text: str, info: dict, experiment: dict, target: Path, runtime_files,
+              resources: tuple[Path, ...] = (), documentation: dict | None = None) -> Path:
+    """One FMU at ``target`` from its slave script: the bundled flexfmu, the files ``resources`` (in
+    resources/, where the slave finds them at build time too: pythonfmu instantiates it there), the completed
+    modelDescription, ``documentation`` {file name: text} in documentation/, the runtime; validated."""
     from fmpy.validation import validate_fmu
     from pythonfmu.builder import FmuBuilder
 
-    out.mkdir(parents=True, exist_ok=True)
-    front, bridge = runtime.compile_runtime(runtime.build_folder())
+    front, bridge = runtime_files
     build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / "slave" / f"{name}.py"
+        script.parent.mkdir()
+        script.write_text(script_text, encoding="utf-8")
+        # Bundle a clean copy of the package (no caches) under the import name flexfmu.
+        package = Path(tmp) / "flexfmu"
+        shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package, *map(Path, resources)],
+                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True))
+        _rewrite_model_description(fmu, info, experiment, documentation)
+        runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": name})
+        target = Path(target)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(fmu), target)
+    problems = validate_fmu(str(target))
+    if problems:
+        raise runtime.RuntimeBuildError(f"{target}: fmpy validate found problems:\n" + "\n".join(problems))
+    return target
+
+
+def build(out: Path) -> list[Path]:
+    """Every FMU of flexfmu.fmi.registry into the folder ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    runtime_files = runtime.compile_runtime(runtime.build_folder())
     built = []
     for spec in registry.FMUS:
-        with tempfile.TemporaryDirectory() as tmp:
-            script = Path(tmp) / "slave" / f"{spec.name}.py"       # generated from the registry
-            script.parent.mkdir()
-            script.write_text(registry.slave_script(spec), encoding="utf-8")
-            # Bundle a clean copy of the package (no caches) under the import name flexfmu.
-            package = Path(tmp) / "flexfmu"
-            shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
-            fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package],
-                                            canGetAndSetFMUstate=True, canSerializeFMUstate=True))
-            _rewrite_model_description(fmu, spec.load().VARIABLE_INFO, spec.experiment)
-            runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": spec.name})
-            target = out / f"{spec.name}.fmu"
-            shutil.move(str(fmu), target)
-        problems = validate_fmu(str(target))
-        if problems:
-            raise runtime.RuntimeBuildError(f"{target}: fmpy validate found problems:\n" + "\n".join(problems))
+        target = build_one(spec.name, registry.slave_script(spec), spec.variable_info, spec.experiment,
+                           out / f"{spec.name}.fmu", runtime_files)
         print(f"built {target} (fmpy validate: no problems)")
         built.append(target)
     return built

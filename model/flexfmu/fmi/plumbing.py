@@ -67,23 +67,23 @@ class FmiStatus(Exception):
 
 
 class Plumbing:
-    """One instance of the FMU ``spec`` (flexfmu.fmi.registry).  Its simulator module provides
-    INPUT_NAMES, OUTPUT_NAMES, VARIABLE_INFO {name: (unit, description)} and optionally DEFERRED_OUTPUTS;
+    """One instance of the FMU ``spec`` (flexfmu.fmi.registry.FmuSpec, or an exported body's spec), which
+    gives input_names, output_names, variable_info {name: (unit, description)}, deferred_outputs,
+    config_class and make_simulator(config);
     the simulator is built from a config (the parameters) and has set_inputs(**) (or
     set_input_vector/output_vector), step(h), outputs(), get_state()/set_state(dict), time and optionally
     a ``messages`` list."""
 
     def __init__(self, slave, spec):
-        module = spec.load()
         self.slave = slave
         self.config_class = config_class = spec.config_class
-        self.simulator_class = spec.simulator_class
-        self.input_names = module.INPUT_NAMES
-        self.output_names = module.OUTPUT_NAMES
-        self.variable_info = module.VARIABLE_INFO
+        self.make_simulator = spec.make_simulator
+        self.input_names = spec.input_names
+        self.output_names = spec.output_names
+        self.variable_info = spec.variable_info
         self.messages: list[tuple[int, str, str]] = []
         self._defaults = asdict(config_class())
-        deferred = getattr(module, "DEFERRED_OUTPUTS", ())
+        deferred = spec.deferred_outputs
         self._deferred_index = [self.output_names.index(name) for name in deferred]
         self._clear()
         for field in fields(config_class):
@@ -271,7 +271,7 @@ class Plumbing:
             if isinstance(value, float) and not math.isfinite(value):
                 raise FmiStatus(f"{name}: got {value!r} (allowed: a finite number)")
         try:
-            sim = self.simulator_class(self.config_class(**values))
+            sim = self.make_simulator(self.config_class(**values))
             sim.set_inputs(**dict(zip(self.input_names, self._inputs)))     # checked, naming each input
         except (FlexfmuError, ArithmeticError, RecursionError) as exc:
             raise FmiStatus(str(exc) if isinstance(exc, FlexfmuError) else

@@ -36,6 +36,26 @@ class FmuSpec:
     def simulator_class(self):
         return getattr(self.load(), self.simulator)
 
+    # What flexfmu.fmi.plumbing asks of any FMU spec (an exported body's spec answers from its model file).
+    @property
+    def input_names(self) -> tuple:
+        return self.load().INPUT_NAMES
+
+    @property
+    def output_names(self) -> tuple:
+        return self.load().OUTPUT_NAMES
+
+    @property
+    def variable_info(self) -> dict:
+        return self.load().VARIABLE_INFO
+
+    @property
+    def deferred_outputs(self) -> tuple:
+        return getattr(self.load(), "DEFERRED_OUTPUTS", ())
+
+    def make_simulator(self, config):
+        return self.simulator_class(config)
+
 
 _WEC = {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}
 
