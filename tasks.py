@@ -44,6 +44,11 @@ def ensure_venv() -> Path:
         print("[tasks] installing flexfmu[dev] into .venv", flush=True)
         subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "--upgrade", "pip"])
         subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "-e", f"{ROOT}[dev]"])
+        # Nastran decks (flexfmu.importers.nastran): pyNastran 1.4.1's metadata pins numpy<2, which would
+        # downgrade flexfmu's numpy; it runs on numpy 2 (flexfmu aliases the one removed function it calls),
+        # so it goes in without its dependencies, and with the ones it really needs.
+        subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "--no-deps", "pyNastran==1.4.1",
+                               "cpylog>=1.4", "docopt-ng>=0.9", "colorama"])
         STAMP.write_text(fingerprint)
     return python
 

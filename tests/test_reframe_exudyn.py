@@ -1,6 +1,6 @@
 """Independent flexible reference: the paper's plate load case in Exudyn's reduced-order
-floating frame of reference formulation, stored in tests/reference/exudyn_plate/trajectory.csv by
-tests/reference/exudyn_plate/generate.py (Exudyn is not needed here).
+floating frame of reference formulation, stored in flexfmu/data/references/exudyn_plate/trajectory.csv by
+generate.py beside it (Exudyn is not needed here).
 
 Same input in both codes: the coarse plate paper_plate((20, 2, 1)) (M, K, nodes), its first ten flexible
 modes (Exudyn computes its own; generate.py checks they are flexfmu's), 5% modal damping; 50 N along global
@@ -14,7 +14,6 @@ elastic displacement Psi q (body frame) are comparable directly.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,8 +21,9 @@ import pytest
 from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.plate import LOAD_POINT, paper_plate
 from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator, half_sine_pulse
+from flexfmu.studies.references import reference_path
 
-REFERENCE = Path(__file__).parent / "reference" / "exudyn_plate" / "trajectory.csv"
+REFERENCE = reference_path("exudyn_plate")
 FORCE = 50.0 * np.array([1.0, 0.0, 1.0]) / math.sqrt(2.0)
 PULSE = 0.01
 DT = 1e-4

@@ -11,14 +11,12 @@ Geometric stiffness (flexfmu.ffr.geometric_stiffness) against independent result
 * a standing column under a vertical base acceleration buckles at Greenhill's a L^3 rho A / EI =
   (3 j / 2)^2 = 7.8373, j the first zero of the Bessel function J_{-1/3}.
 
-Spin-up (flexfmu.studies.spinup) against the geometrically exact Exudyn reference tests/reference/spinup/:
+Spin-up (flexfmu.studies.spinup) against the geometrically exact Exudyn reference flexfmu/data/references/spinup/:
 * without stiffening, both the FFR and the reframe model turn unstable when the hub rate passes the first
   bending frequency 3.7977 rad/s (t = 8.51 s) and their tip deflection then diverges: detected and reported;
 * with stiffening, both follow the reference within 5 % of its peak over 0-20 s.
 """
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,7 +31,7 @@ from flexfmu.linalg.modal import solve_modes
 from flexfmu.ffr.scene import scene_from_dict
 from flexfmu.studies import spinup
 
-REFERENCE = Path(__file__).parent / "reference" / "spinup" / "trajectory.csv"
+REFERENCE = spinup.REFERENCE
 L, EI, RHO_A = 10.0, 1.4e4, 1.2
 OMEGA_0 = 1.8751040687**2 * np.sqrt(EI / (RHO_A * L**4))      # first cantilever frequency, 3.79773 rad/s
 

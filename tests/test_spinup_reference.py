@@ -1,6 +1,6 @@
 """Sanity checks of the geometrically exact spin-up reference.
 
-tests/reference/spinup/trajectory.csv is written by tests/reference/spinup/generate.py (Exudyn ANCF cable
+flexfmu/data/references/spinup/trajectory.csv is written by generate.py beside it (Exudyn ANCF cable
 elements, see the README there); this test reads only the CSV.  Each check can fail on a wrong reference:
 
 * the hub angle column (the root-slope angle measured in Exudyn) is the prescribed theta(t) to 1e-9 rad;
@@ -19,12 +19,12 @@ elements, see the README there); this test reads only the CSV.  Each check can f
 """
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-REFERENCE = Path(__file__).parent / "reference" / "spinup" / "trajectory.csv"
+from flexfmu.studies.references import reference_path
+
+REFERENCE = reference_path("spinup")
 L, EI, RHO_A, EA = 10.0, 1.4e4, 1.2, 2.8e7
 OMEGA_S, T_S = 6.0, 15.0
 ALPHA_MAX = 2 * OMEGA_S / T_S                      # 0.8 rad/s^2 at t = 7.5 s

@@ -4,13 +4,13 @@ References never come from the code under test: the RK4 amplification polynomial
 generalised eigenproblem of (K, M), principal axes and rigid lengths from M and the nodes, the fixed-frame
 model's stretch from geometry (a point moved along the tangent), the rigid added-mass loop of the
 co-simulation from the bodies' 6x6 inertias, momentum and energy from M, K and the nodal state.
-benchmarks/stability.py runs the full studies and draws the charts of docs/stability.md.
+flexfmu.studies.stability (`flexfmu bench stability`) runs the full studies and draws the charts of
+docs/stability.md.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -151,14 +151,9 @@ def test_large_rotation_fixed_frame_model_stretches_reframe_holds(rod):
 
 # --------------------------------------------------------------------------- 3. co-simulation coupling
 def _study():
-    """benchmarks/stability.py, which draws the charts from the same system and predictions."""
-    import importlib
-    import sys
-
-    root = str(Path(__file__).resolve().parents[1])
-    if root not in sys.path:
-        sys.path.insert(0, root)
-    return importlib.import_module("benchmarks.stability")
+    """flexfmu.studies.stability, which draws the charts from the same system and predictions."""
+    from flexfmu.studies import stability
+    return stability
 
 
 def platform_beam_system(mass_ratio: float):

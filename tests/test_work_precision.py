@@ -1,11 +1,8 @@
-"""Building blocks of the work-precision study (benchmarks/work_precision.py) and the
+"""Building blocks of the work-precision study (flexfmu.studies.work_precision) and the
 `flexfmu bench <study>` dispatcher.  Fast: small models, short records; no timing is asserted."""
 from __future__ import annotations
 
-import importlib
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,14 +10,11 @@ import pytest
 from flexfmu import cli
 from flexfmu.errors import ParameterError
 
-ROOT = Path(__file__).resolve().parents[1]
-
 
 @pytest.fixture(scope="module")
 def wp():
-    if str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
-    return importlib.import_module("benchmarks.work_precision")
+    from flexfmu.studies import work_precision
+    return work_precision
 
 
 def test_error_norm_is_zero_against_itself_and_relative_to_the_peak(wp):
@@ -102,4 +96,4 @@ def test_bench_names_a_missing_study_file(monkeypatch, capsys):
     monkeypatch.setitem(cli.BENCH_STUDIES, "spinup", "no_such_study_file")
     assert cli.main(["bench", "spinup"]) == 2
     err = capsys.readouterr().err
-    assert "bench spinup" in err and "benchmarks/no_such_study_file.py" in err
+    assert "bench spinup" in err and "flexfmu.studies.no_such_study_file" in err

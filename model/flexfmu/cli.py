@@ -49,26 +49,26 @@ def _modal(args: argparse.Namespace) -> int:
     return 0
 
 
-#: ``flexfmu bench STUDY``: the source checkout's benchmarks/<module>.py, each with main(argv).
+#: ``flexfmu bench STUDY``: the module flexfmu.studies.<module>, each with main(argv) (benchmarks/<module>.py
+#: are shells over the same).
 BENCH_STUDIES = {"performance": "performance", "work-precision": "work_precision", "stability": "stability",
                  "spinup": "spinup"}
 
 
 def _bench(args: argparse.Namespace) -> int:
-    """Run a study of the source checkout's benchmarks/ (default: performance.py) through its main(argv)."""
+    """Run a study of flexfmu.studies (default: performance) through its main(argv)."""
     import importlib
 
-    root = Path(__file__).resolve().parents[2]
     module = BENCH_STUDIES[args.study]
-    script = root / "benchmarks" / f"{module}.py"
-    if not script.is_file():
-        print(f"flexfmu: error: bench {args.study}: needs a source checkout with benchmarks/{module}.py "
-              f"(not found next to the installed package at {Path(__file__).parent})", file=sys.stderr)
+    try:
+        study = importlib.import_module(f"flexfmu.studies.{module}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"flexfmu.studies.{module}":
+            raise                                  # a package the study needs: its own message names it
+        print(f"flexfmu: error: bench {args.study}: no study module flexfmu.studies.{module} in "
+              f"{Path(__file__).parent}", file=sys.stderr)
         return 2
-    if str(root) not in sys.path:
-        sys.path.insert(0, str(root))
-    bench_main = importlib.import_module(f"benchmarks.{module}").main
-    return bench_main((["--quick"] if args.quick else []) + (["--out", args.out] if args.out else []))
+    return study.main((["--quick"] if args.quick else []) + (["--out", args.out] if args.out else []))
 
 
 def _main_job(args: argparse.Namespace) -> int:
@@ -318,15 +318,25 @@ def build_parser() -> argparse.ArgumentParser:
                          help="skip the coupling-stability check (a few seconds for the wave-energy converter)")
     cosim_p.set_defaults(func=_cosim)
 
-    bench = sub.add_parser("bench", help="benchmark studies (benchmarks/<study>.py; source checkout)",
-                           description="Run a benchmark study of the source checkout: performance (default; the "
-                                       "performance table, writes docs/performance.md), work-precision (error "
-                                       "against CPU time; docs/work_precision.md and charts), stability, spinup.")
+    bench = sub.add_parser(
+        "bench", help="benchmark studies (flexfmu.studies; also benchmarks/<study>.py)",
+        description="Run a benchmark study (flexfmu.studies.<study>; works from an installed flexfmu): performance "
+                    "(default; the performance table, report performance.md), work-precision (error against CPU "
+                    "time; report work_precision.md and charts), stability (tables and charts of the failure "
+                    "modes), spinup (linear models against a geometrically exact reference). Reports and charts go "
+                    "to docs/ and docs/figures/ when flexfmu is a source checkout's model/flexfmu (an editable "
+                    "install), else to the current directory and ./figures/. The reference trajectories are "
+                    "package data (flexfmu/data/references/). Charts need matplotlib and the Exudyn comparisons "
+                    "Exudyn; without them those parts are skipped with the pip command. More options: "
+                    "python -m flexfmu.studies.<study> --help.")
     bench.add_argument("study", nargs="?", choices=tuple(BENCH_STUDIES), default="performance",
                        help="which study (default performance)")
     bench.add_argument("--quick", action="store_true", help="the study's short version")
-    bench.add_argument("--out", default=None, help="the study's report file (default: its file in docs/); "
-                                                   "performance: '-' prints only")
+    bench.add_argument("--out", default=None, metavar="REPORT.md",
+                       help="the study's Markdown report; its charts go to figures/ beside it (default: performance "
+                            "and work-precision write docs/<study>.md of a source checkout, else ./<study>.md; "
+                            "stability and spinup write no report and draw their charts into docs/figures/ or "
+                            "./figures/); '-': no report")
     bench.set_defaults(func=_bench)
 
     main_job = sub.add_parser("main", help="the main job: the paper's spatial double pendulum, all boundaries")

@@ -1,7 +1,7 @@
 """Geometrically exact reference for the spin-up problem of Kane, Ryan & Banerjee (1987).
 
-    .venv/bin/python tests/reference/spinup/generate.py            # trajectory.csv + spinup_tip_deflection.png (~40 s)
-    .venv/bin/python tests/reference/spinup/generate.py --check    # + mesh, time-step and tolerance refinements and
+    .venv/bin/python model/flexfmu/data/references/spinup/generate.py            # trajectory.csv + spinup_tip_deflection.png (~40 s)
+    .venv/bin/python model/flexfmu/data/references/spinup/generate.py --check    # + mesh, time-step and tolerance refinements and
                                                                    #   a second element type (~6 min in all)
 
 Problem: a uniform cantilever, L = 10 m, EI = 1.4e4 N m^2, rho A = 1.2 kg/m, EA = 2.8e7 N, clamped at the
@@ -339,7 +339,7 @@ def main(argv=None):
           f"rad/s (t = {t_cross:.2f} s)")
 
     header = [
-        f"generator: tests/reference/spinup/generate.py; exudyn {exu.__version__}; python {sys.version.split()[0]}; "
+        f"generator: model/flexfmu/data/references/spinup/generate.py; exudyn {exu.__version__}; python {sys.version.split()[0]}; "
         f"numpy {np.__version__}",
         f"problem: Kane, Ryan & Banerjee (1987) spin-up; L {L} m, EI {EI} N m^2, rhoA {RHO_A} kg/m, EA {EA} N; "
         f"theta = ({OMEGA_S}/{T_S})[t^2/2 + ({T_S}/2pi)^2 (cos(2 pi t/{T_S}) - 1)] for t < {T_S} s, "
