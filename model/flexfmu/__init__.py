@@ -26,6 +26,13 @@ A conventional structural model, its modal basis and the reframe integrator (Liu
 >>> bool(res.com_velocity[-1, 0] > 0)                          # pushed along +x
 True
 
+A user's FE model (a mesh and its material, a Nastran deck, MAPDL's .full) through one entry point:
+
+>>> flexfmu.load_structure("no_such_bracket.msh", material={"E": 2.1e11, "nu": 0.3, "rho": 7850})  # doctest: +ELLIPSIS
+Traceback (most recent call last):
+    ...
+flexfmu.errors.ParameterError: source: no such file or model: 'no_such_bracket.msh' (allowed: paper_plate | ...)
+
 Bad input names the parameter and what is allowed:
 
 >>> flexfmu.load_scene("no_such_scene")   # doctest: +ELLIPSIS
@@ -36,7 +43,7 @@ flexfmu.errors.ParameterError: scene: 'no_such_scene' is neither a built-in scen
 from importlib import import_module
 
 from flexfmu.errors import (ConvergenceError, CosimulationError, DivergenceError, FlexfmuError,
-                            ModalConvergenceError, NonFiniteError, ParameterError, StepRejected)
+                            ModalConvergenceError, ModelFileError, NonFiniteError, ParameterError, StepRejected)
 
 __version__ = "0.1.0"
 
@@ -49,7 +56,9 @@ _LAZY = {
     "FramePose": "flexfmu.ffr.kinematics", "FFRBeamConfig": "flexfmu.ffr.simulator",
     "FFRBeamSimulator": "flexfmu.ffr.simulator",
     # conventional models, modal bases, the reframe integrator
-    "Structure": "flexfmu.core.structure", "load_structure": "flexfmu.core.io", "save_structure": "flexfmu.core.io",
+    # load_structure: every model source (meshes, Nastran, MAPDL .full, .npz, specs); .npz via flexfmu.core.io
+    "Structure": "flexfmu.core.structure", "load_structure": "flexfmu.importers", "save_structure": "flexfmu.core.io",
+    "Provenance": "flexfmu.core.structure",
     "load_model": "flexfmu.reframe.models", "paper_plate": "flexfmu.reframe.plate",
     "solve_modes": "flexfmu.linalg.modal", "modal_basis": "flexfmu.linalg.modal_basis",
     "ModalBasis": "flexfmu.linalg.modal_basis", "mass_properties": "flexfmu.linalg.modal_basis",
@@ -61,7 +70,7 @@ _LAZY = {
 }
 
 __all__ = ["ConvergenceError", "CosimulationError", "DivergenceError", "FlexfmuError", "ModalConvergenceError",
-           "NonFiniteError", "ParameterError", "StepRejected", "__version__", *_LAZY]
+           "ModelFileError", "NonFiniteError", "ParameterError", "StepRejected", "__version__", *_LAZY]
 
 
 def __getattr__(name: str):

@@ -2,7 +2,9 @@
 
     FlexfmuError
     ├── ParameterError           a value outside its allowed range (names the parameter and the range)
-    │   └── DivergenceError      a run that diverged (names the input or parameter behind it, else "state")
+    │   ├── DivergenceError      a run that diverged (names the input or parameter behind it, else "state")
+    │   └── ModelFileError       a model file that cannot become a Structure (names the file, the card,
+    │                            element, node or set, and what is allowed)
     ├── NonFiniteError           a value that must be finite is not (names it, or its cause)
     ├── StepRejected             a step a smaller one may take (an FMU answers fmi2Discard)
     ├── ConvergenceError         an iterative solver did not converge
@@ -60,6 +62,20 @@ class StepRejected(FlexfmuError):
 
 class DivergenceError(ParameterError):
     """A run that diverged; ``parameter`` names the input or parameter behind it (else ``state``)."""
+
+
+class ModelFileError(ParameterError):
+    """A model file (mesh, Nastran deck, MAPDL matrices, model JSON) that cannot be turned into a Structure.
+
+    ``parameter`` is the file, followed by the offending entity in brackets when there is one (a card,
+    element, node, set or JSON key), e.g. ``beam.bdf [CTETRA 12]``; ``path`` and ``entity`` hold them apart.
+    """
+
+    def __init__(self, path, message: str, allowed: str | None = None, *, entity: str | None = None):
+        self.path = str(path)
+        self.entity = entity
+        # one line: a CLI prints it as is, and the readers' own messages span several
+        super().__init__(self.path + (f" [{entity}]" if entity else ""), " ".join(str(message).split()), allowed)
 
 
 class ConvergenceError(FlexfmuError, RuntimeError):

@@ -1,6 +1,6 @@
 """Read and write a conventional structural model (:class:`~flexfmu.core.structure.Structure`) as ``.npz``.
 
-File format, exactly these ten keys::
+File format: these ten keys, required::
 
     nodes           (N, 3) float   undeformed node coordinates, m, body frame
     dofs_per_node   ()     int     3 (solid: x, y, z) or 6 (beam: x, y, z, theta_x, theta_y, theta_z)
@@ -9,6 +9,14 @@ File format, exactly these ten keys::
     M_indptr        (n+1,) int     CSR row pointers
     M_shape         (2,)   int     (n, n), n = N * dofs_per_node
     K_data, K_indices, K_indptr, K_shape    the same four for the stiffness matrix
+
+and these, optional (written only when the model has them; files without them load as before)::
+
+    constrained_dofs  (k,)    int  sorted, unique DOF indices the model file fixes (Structure.constrained_dofs)
+    node_set_names    (S,)    str  names of the node sets (Structure.node_sets), unique
+    node_set_indptr   (S+1,)  int  set s holds node_set_nodes[node_set_indptr[s]:node_set_indptr[s + 1]]
+    node_set_nodes    (n,)    int  node indices, sorted and unique within each set
+    provenance        ()      str  JSON of Structure.provenance (source, format, reader, units, material, notes)
 
 DOFs are numbered node by node: DOF ``dofs_per_node * i + j`` is component ``j`` of node ``i``.
 SI units throughout (kg, kg m^2, N/m, N m/rad).
@@ -19,7 +27,9 @@ available for an in-memory model as :func:`validate_structure`.
 """
 from __future__ import annotations
 
+import json
 import zipfile
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -27,12 +37,14 @@ import scipy.sparse as sp
 
 from flexfmu.core.checks import path_exists_as, shown
 from flexfmu.errors import ParameterError
-from flexfmu.core.structure import Structure
+from flexfmu.core.structure import Provenance, Structure
 
 MATRIX_KEYS = ("data", "indices", "indptr", "shape")
 REQUIRED_KEYS = ("nodes", "dofs_per_node") + tuple(
     f"{m}_{part}" for m in ("M", "K") for part in MATRIX_KEYS
 )
+NODE_SET_KEYS = ("node_set_names", "node_set_indptr", "node_set_nodes")
+OPTIONAL_KEYS = ("constrained_dofs",) + NODE_SET_KEYS + ("provenance",)
 ALLOWED_DOFS_PER_NODE = (3, 6)
 SYMMETRY_RTOL = 1e-8  # |A - A^T|_max <= SYMMETRY_RTOL * |A|_max; A is then symmetrised exactly
 MASS_RTOL = 1e-8      # translational masses must agree to this relative tolerance
@@ -166,13 +178,94 @@ def validate_structure(structure: Structure) -> Structure:
     M = _check_matrix(structure.M, "structure.M", n_dof, "M")
     K = _check_matrix(structure.K, "structure.K", n_dof, "K")
     _check_translational_mass(M, dpn, "structure.M")
+    constrained = _check_constrained(getattr(structure, "constrained_dofs", ()), "structure.constrained_dofs", n_dof)
+    sets = _check_node_sets(getattr(structure, "node_sets", {}) or {}, "structure.node_sets", nodes.shape[0])
+    provenance = getattr(structure, "provenance", None) or Provenance()
     return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=structure.name,
-                     meta=dict(structure.meta))
+                     meta=dict(structure.meta), constrained_dofs=constrained, node_sets=sets, provenance=provenance)
+
+
+def _check_constrained(values, name: str, n_dof: int) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if arr.ndim != 1 or arr.dtype.kind not in "iu":
+        raise ParameterError(name, f"shape {arr.shape}, dtype {arr.dtype}", "1-D integer DOF indices")
+    if arr.min() < 0 or arr.max() >= n_dof:
+        raise ParameterError(name, f"DOF index out of range [{arr.min()}, {arr.max()}]", f"0 ... {n_dof - 1}")
+    return np.unique(arr.astype(np.int64))
+
+
+def _check_node_sets(sets, name: str, n_nodes: int) -> dict:
+    if not isinstance(sets, dict):
+        raise ParameterError(name, f"{type(sets).__name__} is not a dict", "{set name: node indices}")
+    out = {}
+    for key, members in sets.items():
+        arr = np.asarray(members)
+        if arr.size == 0:
+            out[str(key)] = np.zeros(0, dtype=np.int64)
+            continue
+        if arr.ndim != 1 or arr.dtype.kind not in "iu" or arr.min() < 0 or arr.max() >= n_nodes:
+            raise ParameterError(f"{name}[{key!r}]", "not node indices", f"integers 0 ... {n_nodes - 1}")
+        out[str(key)] = np.unique(arr.astype(np.int64))
+    return out
+
+
+def _optional_arrays(s: Structure) -> dict:
+    arrays = {}
+    if s.constrained_dofs.size:
+        arrays["constrained_dofs"] = s.constrained_dofs.astype(np.int64)
+    if s.node_sets:
+        names = list(s.node_sets)
+        arrays["node_set_names"] = np.array(names, dtype=str)
+        arrays["node_set_indptr"] = np.cumsum([0] + [s.node_sets[k].size for k in names]).astype(np.int64)
+        arrays["node_set_nodes"] = (np.concatenate([s.node_sets[k] for k in names]).astype(np.int64)
+                                    if arrays["node_set_indptr"][-1] else np.zeros(0, dtype=np.int64))
+    if s.provenance != Provenance():
+        arrays["provenance"] = np.array(json.dumps(asdict(s.provenance)))
+    return arrays
+
+
+def _tuples(value):
+    """JSON lists back to the tuples Provenance holds."""
+    return tuple(_tuples(v) for v in value) if isinstance(value, list) else value
+
+
+def _optional_from_parts(parts: dict, path: Path, n_nodes: int, n_dof: int):
+    """(constrained_dofs, node_sets, provenance) from the optional keys; errors name the key."""
+    constrained = _check_constrained(parts.get("constrained_dofs", ()), "constrained_dofs", n_dof)
+    present = [k for k in NODE_SET_KEYS if k in parts]
+    sets = {}
+    if present:
+        if len(present) != len(NODE_SET_KEYS):
+            missing = next(k for k in NODE_SET_KEYS if k not in parts)
+            raise ParameterError(missing, f"missing from {path.name} (the node set keys come together)",
+                                 ", ".join(NODE_SET_KEYS))
+        names, indptr, members = (parts[k] for k in NODE_SET_KEYS)
+        if names.ndim != 1 or names.dtype.kind != "U" or len(set(names.tolist())) != names.size:
+            raise ParameterError("node_set_names", f"shape {names.shape}, dtype {names.dtype}", "unique strings")
+        if (indptr.ndim != 1 or indptr.dtype.kind not in "iu" or indptr.size != names.size + 1 or indptr[0] != 0
+                or np.any(np.diff(indptr) < 0) or indptr[-1] != members.size):
+            raise ParameterError("node_set_indptr", "not offsets into node_set_nodes",
+                                 f"{names.size + 1} non-decreasing integers from 0 to len(node_set_nodes)")
+        if members.size and (members.dtype.kind not in "iu" or members.min() < 0 or members.max() >= n_nodes):
+            raise ParameterError("node_set_nodes", "not node indices", f"integers 0 ... {n_nodes - 1}")
+        sets = {str(n): np.unique(members[indptr[i]:indptr[i + 1]].astype(np.int64)) for i, n in enumerate(names)}
+    provenance = Provenance(source=str(path), format="npz")
+    if "provenance" in parts:
+        try:
+            fields = json.loads(str(parts["provenance"]))
+            provenance = Provenance(**{k: _tuples(v) for k, v in fields.items()})
+        except (ValueError, TypeError) as exc:
+            raise ParameterError("provenance", f"not a provenance JSON ({exc})",
+                                 "JSON with source, format, reader, units, material, notes") from None
+    return constrained, sets, provenance
 
 
 # --------------------------------------------------------------------------- file I/O
 def save_structure(path, structure: Structure) -> Path:
-    """Write ``structure`` to ``path`` (``.npz``, the ten keys above); return the path written.
+    """Write ``structure`` to ``path`` (``.npz``, the ten keys above and the optional ones it has);
+    return the path written.
 
     The model is validated first (:func:`validate_structure`); ``name`` and ``meta`` are not
     part of the format and are not written.  A missing ``.npz`` suffix is added.
@@ -187,6 +280,7 @@ def save_structure(path, structure: Structure) -> Path:
         arrays[f"{key}_indices"] = A.indices.astype(np.int64)
         arrays[f"{key}_indptr"] = A.indptr.astype(np.int64)
         arrays[f"{key}_shape"] = np.array(A.shape, dtype=np.int64)
+    arrays.update(_optional_arrays(s))
     np.savez_compressed(path, **arrays)
     return path
 
@@ -213,9 +307,10 @@ def load_structure(path) -> Structure:
     for key in REQUIRED_KEYS:
         if key not in parts:
             raise ParameterError(key, f"missing from {path.name}", "keys: " + ", ".join(REQUIRED_KEYS))
-    extra = sorted(set(parts) - set(REQUIRED_KEYS))
+    extra = sorted(set(parts) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
     if extra:
-        raise ParameterError(extra[0], f"unknown key in {path.name}", "keys: " + ", ".join(REQUIRED_KEYS))
+        raise ParameterError(extra[0], f"unknown key in {path.name}",
+                             "keys: " + ", ".join(REQUIRED_KEYS + OPTIONAL_KEYS))
 
     nodes = _check_nodes(parts["nodes"], "nodes")
     dpn = _check_dofs_per_node(parts["dofs_per_node"], "dofs_per_node")
@@ -223,5 +318,6 @@ def load_structure(path) -> Structure:
     M = _check_matrix(_csr_from_parts("M", parts, n_dof), "M_data", n_dof, "M")
     K = _check_matrix(_csr_from_parts("K", parts, n_dof), "K_data", n_dof, "K")
     _check_translational_mass(M, dpn, "M_data")
-    return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=path.stem,
-                     meta={"source": str(path)})
+    constrained, sets, provenance = _optional_from_parts(parts, path, nodes.shape[0], n_dof)
+    return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=path.stem, meta={"source": str(path)},
+                     constrained_dofs=constrained, node_sets=sets, provenance=provenance)

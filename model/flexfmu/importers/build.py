@@ -1,0 +1,106 @@
+"""From a read mesh (points, volume cell blocks, named node sets, fixed DOFs) to a :class:`Structure`.
+
+Shared by the mesh readers (:mod:`flexfmu.importers.solid`, :mod:`flexfmu.importers.nastran`): drops the
+nodes no volume cell uses (they would carry DOFs without stiffness and make K singular), renumbers cells,
+node sets and constraints onto the kept nodes, scales lengths to metres and assembles M and K.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flexfmu.core.structure import Provenance, Structure
+from flexfmu.errors import ModelFileError
+from flexfmu.importers.assembly import CellBlock, assemble
+from flexfmu.importers.elements import SUPPORTED
+from flexfmu.importers.units import UNIT_SYSTEMS
+
+
+@dataclass
+class ReadMesh:
+    """What a reader found: ``points`` (N, 3) in the file's length unit; ``blocks`` of volume cells (point
+    indices); ``node_sets`` name -> point indices; ``fixed`` (n, 2) point index and component 0-2;
+    ``point_ids`` the points' numbers in the file (GRID ids, ...), if it numbers them."""
+
+    points: np.ndarray
+    blocks: list[CellBlock]
+    node_sets: dict = field(default_factory=dict)
+    fixed: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    point_ids: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+
+
+def _point_name(read: ReadMesh, index: int) -> str:
+    return f"node {int(read.point_ids[index])}" if read.point_ids is not None else f"point {index}"
+
+
+def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, file_format: str, reader: str,
+                        units_text: str | None = None, integration: str = "full") -> Structure:
+    """Assemble ``read`` into a Structure (see the module docstring); ``length_unit`` is a key of
+    :data:`flexfmu.importers.units.UNIT_SYSTEMS`; materials in ``read.blocks`` are SI already."""
+    if not read.blocks or all(b.cells.shape[0] == 0 for b in read.blocks):
+        raise ModelFileError(path, "no volume cells", f"a mesh with volume cells: {SUPPORTED}")
+    n_points = read.points.shape[0]
+    used = np.zeros(n_points, dtype=bool)
+    for block in read.blocks:
+        if block.cells.size and (block.cells.min() < 0 or block.cells.max() >= n_points):
+            row = int(np.argwhere((block.cells < 0) | (block.cells >= n_points))[0, 0])
+            raise ModelFileError(path, f"refers to a point outside 0 ... {n_points - 1}", "existing points",
+                                 entity=f"{block.cell_type} {block.cell_id(row)}")
+        used[block.cells.ravel()] = True
+    kept = np.flatnonzero(used)
+    new_index = np.full(n_points, -1)
+    new_index[kept] = np.arange(kept.size)
+    notes = list(read.notes)
+    if kept.size < n_points:
+        notes.append(f"{n_points - kept.size} point(s) in no volume cell dropped "
+                     f"(first: {_point_name(read, int(np.flatnonzero(~used)[0]))})")
+
+    points = np.asarray(read.points, dtype=float)[kept] * UNIT_SYSTEMS[length_unit][0]
+    if not np.all(np.isfinite(points)):
+        bad = int(kept[np.argwhere(~np.isfinite(points))[0, 0]])
+        raise ModelFileError(path, "non-finite coordinate", "finite coordinates", entity=_point_name(read, bad))
+    blocks = [CellBlock(b.cell_type, new_index[b.cells], b.material, b.ids) for b in read.blocks if b.cells.size]
+    M, K = assemble(path, points, blocks, integration)
+
+    node_sets = {}
+    for set_name, members in read.node_sets.items():
+        members = new_index[np.asarray(members, dtype=np.int64)]
+        node_sets[str(set_name)] = np.unique(members[members >= 0])
+    fixed = np.asarray(read.fixed, dtype=np.int64).reshape(-1, 2)
+    unused_fixed = fixed[new_index[fixed[:, 0]] < 0]
+    if unused_fixed.size:
+        notes.append(f"constraints on {np.unique(unused_fixed[:, 0]).size} point(s) in no volume cell ignored")
+    fixed = fixed[new_index[fixed[:, 0]] >= 0]
+    constrained = np.unique(3 * new_index[fixed[:, 0]] + fixed[:, 1]).astype(np.int64)
+
+    cell_counts = {}
+    for b in blocks:
+        cell_counts[b.cell_type] = cell_counts.get(b.cell_type, 0) + b.cells.shape[0]
+    notes.insert(0, "cells: " + ", ".join(f"{n} {t}" for t, n in cell_counts.items()) + f"; {integration} integration")
+    materials = {b.material for b in blocks}
+    meta = {"source": str(path), "cells": cell_counts, "integration": integration}
+    if read.point_ids is not None:
+        meta["node_ids"] = np.asarray(read.point_ids)[kept]
+    scale = UNIT_SYSTEMS[length_unit][0]
+    units = units_text or ("SI (m)" if length_unit == "m" else f"coordinates in {length_unit}, scaled by {scale:g} to m")
+    provenance = Provenance(source=str(path), format=file_format, reader=reader, units=units,
+                            material=next(iter(materials)).as_tuple() if len(materials) == 1 else
+                            tuple(m.as_tuple() for m in sorted(materials, key=lambda m: (m.E, m.nu, m.rho))),
+                            notes=tuple(notes))
+    return Structure(nodes=points, dofs_per_node=3, M=M, K=K, name=name, meta=meta, constrained_dofs=constrained,
+                     node_sets=node_sets, provenance=provenance)
+
+
+def versions(*packages: str) -> str:
+    """'meshio 5.3.5, scikit-fem 12.0.2' for the installed packages."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = []
+    for p in packages:
+        try:
+            out.append(f"{p} {version(p)}")
+        except PackageNotFoundError:
+            out.append(p)
+    return ", ".join(out)
