@@ -1,24 +1,23 @@
 """docs/fmu.md's variable tables are generated from the FMUs' VARIABLE_INFO and config defaults
-(build_scripts/document_fmus.py); this fails when a parameter, unit or description changed without them."""
-import sys
+(flexfmu.fmi.variable_tables, written by build_scripts/document_fmus.py); this fails when a parameter, unit or
+description changed without them."""
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "build_scripts"))
+from flexfmu.fmi import variable_tables
 
-import document_fmus  # noqa: E402
+DOC = Path(__file__).resolve().parents[1] / "docs" / "fmu.md"
 
 
 def test_fmu_variable_tables_are_up_to_date():
-    doc = document_fmus.DOC.read_text(encoding="utf-8")
-    assert document_fmus.render(doc) == doc, "run: .venv/bin/python build_scripts/document_fmus.py"
+    doc = DOC.read_text(encoding="utf-8")
+    assert variable_tables.render(doc) == doc, "run: .venv/bin/python build_scripts/document_fmus.py"
 
 
 def test_every_fmu_variable_is_in_its_table():
     import flexfmu.ffr.simulator as ffr
     import flexfmu.reframe.simulator as rb
     for module, fmu in ((ffr, "FFRBeam"), (rb, "ReframeBody")):
-        text = document_fmus.table(fmu)
+        text = variable_tables.table(fmu)
         for name in (*module.INPUT_NAMES, *module.OUTPUT_NAMES):
             base, _, axis = name.rpartition("_")
             assert f"`{name}`" in text or (f"`{base}_" in text and axis in text), name

@@ -1,0 +1,74 @@
+"""The FMU variable tables of docs/fmu.md (Markdown), from the FMUs' specs: parameters with their defaults,
+inputs and outputs with unit and description; vector components (_x/_y/_z, _1/_2/_3, q_w..q_z) share a row.
+Each table sits between ``<!-- variables:NAME -->`` and ``<!-- /variables:NAME -->``;
+build_scripts/document_fmus.py rewrites docs/fmu.md and tests/test_docs_fmu.py checks it is up to date.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import asdict
+
+from flexfmu.errors import ParameterError
+from flexfmu.fmi.registry import BY_NAME, FMUS
+
+#: the FMUs whose variables docs/fmu.md tables
+DOCUMENTED = tuple(spec.name for spec in FMUS if spec.documented)
+_AXIS = re.compile(r"^(.*)_([xyzw123])$")
+_AXIS_SETS = ("xyz", "wxyz", "123")
+
+
+def _groups(names):
+    """Consecutive names that differ only in an axis suffix (_x/_y/_z, _1/_2/_3, q_w..q_z) form one row."""
+    rows = []
+    for name in names:
+        m = _AXIS.match(name)
+        if rows and m and rows[-1][0] == m.group(1):
+            rows[-1][1].append(m.group(2))
+        else:
+            rows.append([m.group(1), [m.group(2)]] if m else [name, []])
+    out = []
+    for base, axes in rows:
+        siblings = [n for n in names if n.rsplit("_", 1)[0] == base]     # f_1 ... f_6 share the base "f"
+        if "".join(axes) in _AXIS_SETS and len(siblings) == len(axes):
+            out.append((base, axes))
+        else:                                  # e.g. f_1 ... f_6: not a vector, one row each
+            out += [(f"{base}_{a}" if a else base, []) for a in (axes or [""])]
+    return out
+
+
+def _describe(text: str, axes) -> str:
+    if not axes:
+        return text
+    text = re.sub(r", body [xyz123]$", " (body frame)", text)
+    return re.sub(r", [xyzw123]$", "", text)
+
+
+def table(fmu) -> str:
+    """The Markdown variable table of an FMU: a registry name, or any spec with config_class, input_names,
+    output_names and variable_info (flexfmu.fmi.registry.FmuSpec, flexfmu.fmi.export.ExportedSpec)."""
+    spec = BY_NAME[fmu] if isinstance(fmu, str) else fmu
+    defaults = asdict(spec.config_class())
+    info = spec.variable_info
+    lines = ["| variable | causality | default | unit | description |", "|---|---|---|---|---|"]
+    for names, causality in ((list(defaults), "parameter"), (list(spec.input_names), "input"),
+                             (list(spec.output_names), "output")):
+        for base, axes in _groups(names):
+            members = [f"{base}_{a}" for a in axes] or [base]
+            label = f"{base}_{'/'.join(axes)}" if axes else base
+            default = ", ".join(repr(defaults[n]) for n in members) if causality == "parameter" else ""
+            unit, text = info[members[0]]
+            text = _describe(text, axes).replace("|", "\\|")      # a bare | would split the table cell
+            lines.append(f"| `{label}` | {causality} | {default} | {unit or '–'} | {text} |".replace("|  |", "| |"))
+    return "\n".join(lines)
+
+
+def render(doc: str) -> str:
+    """``doc`` with every documented FMU's table between its markers."""
+    for fmu in DOCUMENTED:
+        start, end = f"<!-- variables:{fmu} -->", f"<!-- /variables:{fmu} -->"
+        if start not in doc or end not in doc:
+            raise ParameterError("doc", f"lacks the markers {start} ... {end}", "both markers of every documented FMU")
+        head, rest = doc.split(start, 1)
+        _, tail = rest.split(end, 1)
+        doc = f"{head}{start}\n{table(fmu)}\n{end}\n\n{tail.lstrip(chr(10))}"
+    return doc
