@@ -190,8 +190,8 @@ def _rigid_orthonormal(structure: Structure):
     if j_min <= 1e-12 * mass * max(size, 1e-300) ** 2:
         raise ParameterError(
             "structure.M",
-            f"a rigid rotation has no inertia (smallest principal moment {j_min:.3g} kg m^2 for mass "
-            f"{mass:.6g} kg and size {size:.3g} m), e.g. all nodes on one line without rotary inertia: "
+            f"singular free body: a rigid rotation has no inertia (smallest principal moment {j_min:.3g} kg m^2 "
+            f"for mass {mass:.6g} kg and size {size:.3g} m), e.g. all nodes on one line without rotary inertia: "
             "fewer than six independent rigid-body modes",
             "mass and all three principal moments of inertia > 0")
     s, U = np.linalg.eigh(G)
@@ -265,8 +265,9 @@ def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: floa
             except np.linalg.LinAlgError:
                 raise ParameterError("structure.M", f"not positive definite ({exc})",
                                      "symmetric positive definite mass matrix for the dense eigensolver") from None
-            raise ParameterError("structure.K", f"K + s M is not positive definite ({exc}): K is indefinite or "
-                                 "the structure has more than six zero-energy modes (falls apart)",
+            raise ParameterError("structure.K", f"singular free body: K + s M is not positive definite ({exc}): "
+                                 "K is indefinite or the structure has more than six zero-energy modes (a mechanism, "
+                                 "or pieces not connected to each other)",
                                  "symmetric positive semi-definite K of a connected free structure") from None
         rigid_content = np.sum((Phi.T @ (M @ V)) ** 2, axis=0)
         return V[:, np.sort(np.argsort(rigid_content)[:n])]
@@ -471,7 +472,8 @@ def _compute(s: Structure, n: int, method: str, sigma: float) -> dict:
         lam = np.maximum(lam, 0.0)
         # A candidate that was really a (near-)zero-energy mode: mechanism, not a flexible mode.
         if lam[0] <= ZERO_EIG_RTOL * lam_scale:
-            raise ParameterError("structure.K", "more than six zero-energy modes (a mechanism or a disconnected part)",
+            raise ParameterError("structure.K", "singular free body: more than six zero-energy modes (a mechanism, "
+                                 "or pieces not connected to each other)",
                                  "a connected free-free structure with exactly six rigid-body modes")
         _check_residuals(KV @ Q, MV @ Q, absK @ np.abs(Psi_F), lam, used)
         lam = np.maximum(_stiffness_quotients(K, Psi_F) / np.einsum("ij,ij->j", Psi_F, MV @ Q), 0.0)

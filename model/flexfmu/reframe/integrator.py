@@ -143,8 +143,10 @@ class ReframeIntegrator:
     reference_points:   (R, P, Q): node indices or coordinates (nearest node).  Default: the
                         structure's ``meta["points"]`` R, P, Q if present (the plate: P1, P2, P3),
                         else R = the node nearest the centre of mass, P = the node farthest from R,
-                        Q = the node farthest from the line RP.  Used by Eqs. (36)-(37) of the paper
-                        scheme; checked (non-colinear) for both schemes.
+                        Q = the node farthest from the line RP.  Used only by Eqs. (36)-(37) of the
+                        paper scheme: required non-colinear there, and whenever given explicitly (any
+                        scheme); the consistent and exponential schemes take any structure with the
+                        default points (a straight rod: colinear nodes).
     scheme:             "consistent" (default), "exponential" (the consistent equations, exact in
                         the flexible modes' linear part: no RK4 stability limit) or "paper".
     deformed_load_arm:  True: the moment of a load on the rigid-body motion uses the deformed position
@@ -236,8 +238,11 @@ class ReframeIntegrator:
         iR, iP, iQ = idx
         p_vec = d.nodes[iP] - d.nodes[iR]
         q_vec = d.nodes[iQ] - d.nodes[iR]
+        # only the paper scheme's Eqs. (36)-(37) use R, P, Q; points given explicitly are checked for any scheme
+        checked = isinstance(self.stepper, _schemes.PaperScheme) or reference_points is not None
         try:
-            oblique_basis(p_vec, q_vec, min_sine=1e-3)
+            if checked:
+                oblique_basis(p_vec, q_vec, min_sine=1e-3)
         except ParameterError as exc:
             raise ParameterError("reference_points",
                                  f"R, P, Q = nodes {idx} at {d.nodes[idx].tolist()} are coincident or colinear "

@@ -71,15 +71,17 @@ from flexfmu.sizing.mesh import (A_PRIORI_MARGIN, CONVERGENCE_ORDER, MAX_BAND_MO
                                  choose_elements_per_segment, choose_n_modes, estimated_mode_count, resolved_band,
                                  richardson, wave_errors)
 from flexfmu.sizing.mesh import _FIRST_MODES_SOLVED, _frequency_of_mode, _unreachable, _wave_numbers  # noqa: F401
-from flexfmu.sizing.solid import (MAX_AUTO_MODES, BasisChoice, auto_basis, load_point_rows, modal_compliance,
-                                  reframe_truncation_errors, static_deflections)
-from flexfmu.sizing.solid import _SHIFT, _select, _static_error  # noqa: F401
+from flexfmu.sizing.solid import (MAX_AUTO_MODES, BasisChoice, ModeSearch, auto_basis, kept_message, load_point_rows,
+                                  modal_compliance, mode_search, reframe_truncation_errors, residual_vectors,
+                                  static_deflections, static_responses)
+from flexfmu.sizing.solid import _SHIFT, _select, _static_error, _with_frequencies  # noqa: F401
 
 __all__ = ["A_PRIORI_MARGIN", "CONVERGENCE_ORDER", "FFR_LOAD_GROUPS", "LOAD_PATTERN_NAMES", "MAX_AUTO_MODES",
            "MAX_BAND_MODES", "MAX_ELEMENTS_PER_SEGMENT", "ROUNDOFF_CEILING", "SAFETY_FACTOR", "TOLERANCE_RANGE",
-           "BasisChoice", "MeshChoice", "ModelChoice", "StaticCorrection", "TruncationChoice", "TruncationEstimate",
+           "BasisChoice", "MeshChoice", "ModeSearch", "ModelChoice", "StaticCorrection", "TruncationChoice",
+           "TruncationEstimate",
            "auto_basis", "check_band", "check_resolvable", "choose_elements_per_segment", "choose_n_modes",
            "dynamic_error_factor", "estimated_mode_count", "ffr_load_patterns", "ffr_static_correction",
-           "ffr_truncation_errors", "load_point_rows", "modal_compliance", "reframe_truncation_errors",
-           "residual_flexibility", "resolved_band", "richardson", "static_deflections", "truncation_errors",
-           "wave_errors"]
+           "ffr_truncation_errors", "kept_message", "load_point_rows", "modal_compliance", "mode_search",
+           "reframe_truncation_errors", "residual_flexibility", "residual_vectors", "resolved_band", "richardson",
+           "static_deflections", "static_responses", "truncation_errors", "wave_errors"]

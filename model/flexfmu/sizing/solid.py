@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -44,15 +45,22 @@ def load_point_rows(structure, node: int) -> np.ndarray:
 
 def static_deflections(structure, basis: ModalBasis, rows) -> np.ndarray:
     """Exact elastic static deflections (n_dof, len(rows)) of the free-free model under a unit load on each
-    DOF row, with inertia relief (the load minus the inertia forces of the rigid acceleration it causes),
+    DOF row: :func:`static_responses` of those unit loads."""
+    F = np.zeros((structure.n_dof, len(rows)))
+    F[np.asarray(rows), np.arange(len(rows))] = 1.0
+    return static_responses(structure, basis, F)
+
+
+def static_responses(structure, basis: ModalBasis, loads) -> np.ndarray:
+    """Exact elastic static deflections (n_dof, k) of the free-free model under the load patterns ``loads``
+    (n_dof, k), with inertia relief (the load minus the inertia forces of the rigid acceleration it causes),
     M-orthogonal to the rigid modes: one sparse factorisation of K + s M (s = 1e-8 omega_1^2; relative
     error ~1e-8 of the first mode's share) and one refinement step."""
     M, K = structure.M.tocsc(), structure.K.tocsc()
     PR = basis.shapes[:, :N_RIGID]
     lam1 = float(basis.stiffness[N_RIGID]) if basis.n_flexible else float(np.max(K.diagonal() / M.diagonal()))
     lu = spla.splu((K + _SHIFT * lam1 * M).tocsc())
-    F = np.zeros((structure.n_dof, len(rows)))
-    F[np.asarray(rows), np.arange(len(rows))] = 1.0
+    F = np.array(loads, dtype=float)
     F -= M @ (PR @ (PR.T @ F))                              # inertia relief: PR^T F = 0 now
     U = lu.solve(F)
     U += lu.solve(F - K @ U - _SHIFT * lam1 * (M @ U))      # iterative refinement
@@ -96,6 +104,86 @@ def reframe_truncation_errors(structure, basis: ModalBasis, U: np.ndarray, load_
                              f_max, damping_ratio, ritz_residual=True, complete=complete)
 
 
+class ModeSearch(NamedTuple):
+    """:func:`mode_search`'s result: the last computed modes ``full`` and their flexible frequencies (Hz), how
+    many were computed (n_try), how many lie at or below f_max, the truncation estimate (None if not needed),
+    how many to keep (None: the computed ones do not reach the tolerance) and the static responses U."""
+
+    full: object
+    freqs: np.ndarray
+    n_try: int
+    n_below: int
+    estimate: object
+    n_keep: int | None
+    U: np.ndarray | None
+
+
+def _with_frequencies(basis: ModalBasis):
+    return basis, basis.frequencies_hz
+
+
+def mode_search(n_max: int, solve, static, estimate, f_max: float, tolerance: float) -> ModeSearch:
+    """The fewest modes for a band and a tolerance: compute 8, 16, ... (up to n_max) of the lowest modes
+    (``solve(n) -> (modes, flexible frequencies Hz)``) until every mode up to f_max is computed and the estimated
+    dynamic truncation error (``estimate(modes, U) -> TruncationEstimate``, Eq. (E) of flexfmu.sizing.model_size,
+    U = ``static(modes)`` the full static responses) settles within tolerance / SAFETY_FACTOR, the modes not
+    computed being bounded within a tenth of the tolerance."""
+    n_try, U = min(8, n_max), None
+    for _ in range(2 + n_max.bit_length()):              # n_try doubles up to n_max, where the loop ends
+        full, freqs = solve(n_try)
+        if U is None and n_try:
+            U = static(full)
+        n_below = int(np.count_nonzero(freqs <= f_max))
+        found, n_keep = None, None
+        if n_try and (n_below < n_try or n_try >= n_max):
+            found = estimate(full, U)
+            n_keep = found.smallest(tolerance / SAFETY_FACTOR, at_least=n_below)
+        settled = found is not None and found.errors[-1] <= 0.1 * tolerance   # uncomputed modes' bound
+        if n_try >= n_max or (n_keep is not None and n_keep < n_try and settled):
+            break
+        n_try = min(2 * n_try, n_max)
+    return ModeSearch(full, freqs, n_try, n_below, found, n_keep, U)
+
+
+def kept_message(prefix: str, noun: str, outputs: str, found: ModeSearch, n_keep: int, complete: bool, f_max: float,
+                 tolerance: float) -> str:
+    """What a mode search kept and why, for the log (``outputs``: what the truncation error was estimated of)."""
+    freqs, n_try, n_below, estimate = found.freqs, found.n_try, found.n_below, found.estimate
+    kept = freqs[:n_keep]
+    shown = ", ".join(f"{f:.4g}" for f in kept[:6]) + (f", ..., {kept[-1]:.4g}" if n_keep > 6 else "")
+    if estimate is not None and complete and n_keep == n_try:
+        why = (f"every flexible mode of the model, the complete modal basis, so there is no truncation error; "
+               f"{n_below} of them up to f_max = {f_max:g} Hz")
+    elif estimate is not None:
+        met = SAFETY_FACTOR * estimate.errors[n_keep] <= tolerance
+        why = (f"the {n_below} up to f_max = {f_max:g} Hz and {n_keep - n_below} above, "
+               + ("until" if met else "all computed (limit); NOT within tolerance:")
+               + f" the estimated dynamic truncation error of {outputs} (mode "
+               f"acceleration, omitted modes and residual vectors amplified as at f_max) is {estimate.errors[n_keep]:.2g}"
+               f", x{SAFETY_FACTOR:g} safety {'<=' if met else '>'} {tolerance:g}, worst: {estimate.worst[n_keep]}")
+    else:
+        why = f"every mode up to f_max = {f_max:g} Hz"
+    return (f"{prefix}: kept {n_keep} {noun} ({why})" + (f": {shown} Hz" if n_keep else "")
+            + (f"; the next is at {freqs[n_keep]:.4g} Hz" if n_keep < freqs.size else
+               f"; limit of {MAX_AUTO_MODES} modes reached" if n_keep == MAX_AUTO_MODES else ""))
+
+
+def residual_vectors(M, K, shapes: np.ndarray, U: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Residual-flexibility vectors of static responses U (n, k) that the retained ``shapes`` (n, m,
+    M-orthonormal) miss: U made M-orthogonal to the shapes, M-orthonormalised (directions below 1e-12 of the
+    largest dropped) and K-diagonalised.  Returns W (n, r) and their Rayleigh quotients omega^2 (r,)."""
+    R = U.copy()
+    for _ in range(2):                                   # M-orthogonal to every retained mode ("twice is enough")
+        R -= shapes @ (shapes.T @ (M @ R))
+    Mr = R.T @ (M @ R)
+    mu, V = np.linalg.eigh(0.5 * (Mr + Mr.T))
+    keep = mu > 1e-12 * mu.max()
+    W = R @ (V[:, keep] / np.sqrt(mu[keep]))             # M-orthonormal residual vectors
+    Kw = W.T @ (K @ W)
+    lam, Y = sla.eigh(0.5 * (Kw + Kw.T))
+    return W @ Y, lam
+
+
 def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, load_node: int,
                output_node: int | None = None) -> BasisChoice:
     """The basis and its messages for ``n_flexible_modes = -1``: the flexible modes up to f_max (Hz), then more until the
@@ -109,21 +197,11 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
     rows = load_point_rows(structure, load_node)
     out_rows = load_point_rows(structure, output_node)[:3]
     zeta = float(np.atleast_1d(damping_ratio)[0])
-    n_try, U = min(8, n_max), None
-    for _ in range(2 + n_max.bit_length()):              # n_try doubles up to n_max, where the loop ends
-        full = modal_basis(structure, n_try, damping_ratio)
-        freqs = full.frequencies_hz
-        if U is None and n_try:
-            U = static_deflections(structure, full, rows)
-        n_below = int(np.count_nonzero(freqs <= f_max))
-        estimate, n_keep = None, None
-        if n_try and (n_below < n_try or n_try >= n_max):
-            estimate = reframe_truncation_errors(structure, full, U, rows, out_rows, f_max, zeta)
-            n_keep = estimate.smallest(tolerance / SAFETY_FACTOR, at_least=n_below)
-        settled = estimate is not None and estimate.errors[-1] <= 0.1 * tolerance   # uncomputed modes' bound
-        if n_try >= n_max or (n_keep is not None and n_keep < n_try and settled):
-            break
-        n_try = min(2 * n_try, n_max)
+    found = mode_search(n_max, lambda n: _with_frequencies(modal_basis(structure, n, damping_ratio)),
+                        lambda full: static_deflections(structure, full, rows),
+                        lambda full, U: reframe_truncation_errors(structure, full, U, rows, out_rows, f_max, zeta),
+                        f_max, tolerance)
+    full, freqs, n_try, n_below, estimate, n_keep, U = found
     complete = n_try == structure.n_dof - N_RIGID         # every flexible mode of the model computed
     if not complete and n_try and n_below >= n_try:
         # the band itself holds more modes than n_flexible_modes = -1 computes: a truncated basis would silently
@@ -135,23 +213,8 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
     if n_keep is None:                                   # the cap reached: keep all computed
         n_keep = n_try
     basis = _select(full, n_keep)
-    kept = freqs[:n_keep]
-    shown = ", ".join(f"{f:.4g}" for f in kept[:6]) + (f", ..., {kept[-1]:.4g}" if n_keep > 6 else "")
-    if estimate is not None and complete and n_keep == n_try:
-        why = (f"every flexible mode of the model, the complete modal basis, so there is no truncation error; "
-               f"{n_below} of them up to f_max = {f_max:g} Hz")
-    elif estimate is not None:
-        met = SAFETY_FACTOR * estimate.errors[n_keep] <= tolerance
-        why = (f"the {n_below} up to f_max = {f_max:g} Hz and {n_keep - n_below} above, "
-               + ("until" if met else "all computed (limit); NOT within tolerance:")
-               + " the estimated dynamic truncation error of the load and output points' deflection (mode "
-               f"acceleration, omitted modes and residual vectors amplified as at f_max) is {estimate.errors[n_keep]:.2g}"
-               f", x{SAFETY_FACTOR:g} safety {'<=' if met else '>'} {tolerance:g}, worst: {estimate.worst[n_keep]}")
-    else:
-        why = f"every mode up to f_max = {f_max:g} Hz"
-    msgs = [f"n_flexible_modes = -1: kept {n_keep} flexible mode(s) ({why})" + (f": {shown} Hz" if n_keep else "")
-            + (f"; the next is at {freqs[n_keep]:.4g} Hz" if n_keep < freqs.size else
-               f"; limit of {MAX_AUTO_MODES} modes reached" if n_keep == MAX_AUTO_MODES else "")]
+    msgs = [kept_message("n_flexible_modes = -1", "flexible mode(s)", "the load and output points' deflection", found,
+                         n_keep, complete, f_max, tolerance)]
     if U is None:
         return BasisChoice(basis, tuple(msgs))
     C_full = U[rows]
@@ -172,18 +235,7 @@ def auto_basis(structure, f_max: float, tolerance: float, damping_ratio: float, 
                     f"from these modes is within {err:.2g} of the full model's (tolerance {tolerance:g}): no static "
                     "correction")
         return BasisChoice(basis, tuple(msgs))
-    M, K = structure.M, structure.K
-    Phi = basis.shapes
-    R = U.copy()
-    for _ in range(2):                                   # M-orthogonal to every retained mode ("twice is enough")
-        R -= Phi @ (Phi.T @ (M @ R))
-    Mr = R.T @ (M @ R)
-    mu, V = np.linalg.eigh(0.5 * (Mr + Mr.T))
-    keep = mu > 1e-12 * mu.max()
-    W = R @ (V[:, keep] / np.sqrt(mu[keep]))             # M-orthonormal residual vectors
-    Kw = W.T @ (K @ W)
-    lam, Y = sla.eigh(0.5 * (Kw + Kw.T))
-    W = W @ Y
+    W, lam = residual_vectors(structure.M, structure.K, basis.shapes, U)
     zeta = float(basis.damping_ratio[0]) if basis.n_flexible else float(np.atleast_1d(damping_ratio)[0])
     wr = np.sqrt(lam)
     corrected = dataclasses.replace(

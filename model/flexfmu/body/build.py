@@ -1,0 +1,162 @@
+"""build_body: a Structure and its interfaces -> the reduced :class:`~flexfmu.body.model.FlexBody`.
+
+Steps: check the structure (flexfmu.core.io.validate_structure); resolve the interfaces' patches
+(flexfmu.body.interfaces); choose the retained coordinates (flexfmu.sizing.interfaces: n_modes given, or the
+modes for f_max and tolerance with the static correction at the interfaces); compute the reduced arrays
+(flexfmu.body.free or flexfmu.body.clamped); keep the interface rows and the provenance.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
+from flexfmu.body.free import free_invariants
+from flexfmu.body.interfaces import resolve_interfaces
+from flexfmu.body.model import FlexBody, InterfaceData
+from flexfmu.core.checks import finite, shown
+from flexfmu.core.io import validate_structure
+from flexfmu.core.structure import Structure
+from flexfmu.errors import ParameterError
+from flexfmu.sizing.interfaces import LoadCase, clamped_modes, free_modes
+
+#: a rigid motion counts as held when its singular value on the fixed DOFs is above this fraction of the largest
+_FREE_MOTION_RTOL = 1e-8
+
+
+def clamped_dofs(structure: Structure, clamp) -> tuple[np.ndarray, str]:
+    n_dof = structure.nodes.shape[0] * int(structure.dofs_per_node)
+    dpn = int(structure.dofs_per_node)
+    if clamp == "file":
+        dofs = np.unique(np.asarray(structure.constrained_dofs, dtype=np.int64).ravel())
+        if dofs.size == 0:
+            raise ParameterError("clamp", '"file": the model file constrains no DOF',
+                                 "a node-set name, or None (a free body)")
+        if dofs[0] < 0 or dofs[-1] >= n_dof:
+            raise ParameterError("structure.constrained_dofs", f"indices outside 0 .. {n_dof - 1}",
+                                 "DOF indices of the model")
+        return dofs, f"the model file's {dofs.size} constrained DOF(s)"
+    if isinstance(clamp, str):
+        sets = structure.node_sets or {}
+        if clamp not in sets:
+            known = ", ".join(sorted(map(str, sets))) or "none in this model"
+            raise ParameterError("clamp", f"unknown node set {shown(clamp)}",
+                                 f'None (free), "file", or a node set: {known}')
+        nodes = np.unique(np.asarray(sets[clamp], dtype=np.int64).ravel())
+        nodes = nodes[(nodes >= 0) & (nodes < structure.nodes.shape[0])]
+        if nodes.size == 0:
+            raise ParameterError("clamp", f"node set {clamp!r} selects no node", "a node set with nodes of the model")
+        return (nodes[:, None] * dpn + np.arange(dpn)).ravel(), f"node set {clamp!r} ({nodes.size} node(s), all DOFs)"
+    raise ParameterError("clamp", f"{shown(clamp)}", 'None (a free body), "file" (the model\'s constraints) or a '
+                         "node-set name")
+
+
+def clamp_from_text(structure: Structure, spec: str | None):
+    """A --clamp text -> build_body's clamp: None (default: the file's constrained DOFs when it has some, else
+    free), "free", "file", a node-set name, or several joined by commas (their union, added to node_sets)."""
+    from flexfmu.importers import node_set
+
+    if spec is None:
+        return "file" if len(structure.constrained_dofs) else None
+    if "," in spec:                     # several node sets held together, e.g. both bolt holes
+        structure.node_sets = {**structure.node_sets,
+                               spec: np.unique(np.concatenate([node_set(structure, name) for name in spec.split(",")]))}
+    return None if spec == "free" else spec
+
+
+def _provenance(structure: Structure, reduction: dict) -> dict:
+    p = structure.provenance
+    out = {}
+    if p is not None and dataclasses.is_dataclass(p):
+        material = ", ".join(f"{x[0]} = {x[1]:g}" if isinstance(x, tuple) and len(x) == 2 and isinstance(x[1], float)
+                             else str(x) for x in p.material)
+        out = {"source": str(p.source), "format": str(p.format), "reader": str(p.reader), "units": str(p.units),
+               "material": material, "notes": [str(x) for x in p.notes]}
+    out["reduction"] = reduction
+    return out
+
+
+def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_max=None, tolerance=None,
+               damping_ratio: float = 0.02, name: str | None = None) -> FlexBody:
+    """The reduced body of ``structure`` with ``interfaces`` (Interface or dicts, flexfmu.body.interfaces).
+
+    clamp:          None: a free body (the model's constraints ignored); "file": clamped on the model file's
+                    constrained DOFs; a node-set name: clamped on all DOFs of those nodes (the base).
+    n_modes:        retained modes; or f_max (Hz) and tolerance (default 1e-3): every mode up to f_max, more
+                    until the interfaces' estimated truncation error is within tolerance, and the static
+                    correction (flexfmu.sizing.interfaces).
+    damping_ratio:  the body's default modal damping ratio, 0 <= zeta < 1 (the FMU parameter may override it).
+    """
+    if not isinstance(structure, Structure):
+        raise ParameterError("structure", f"{type(structure).__name__}", "a flexfmu Structure")
+    if not (finite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
+        raise ParameterError("damping_ratio", f"{shown(damping_ratio)}", "0 <= damping_ratio < 1")
+    checked = validate_structure(structure)
+    checked = dataclasses.replace(checked, node_sets=structure.node_sets or {},
+                                  constrained_dofs=structure.constrained_dofs, provenance=structure.provenance)
+    patches = resolve_interfaces(checked, interfaces)
+    n_dof = checked.n_dof
+    groups = {}
+    for p in patches:
+        G = p.loads(n_dof)
+        groups[f"{p.name} force"] = G[:, :3]
+        if p.moments:
+            groups[f"{p.name} moment"] = G[:, 3:]
+    outputs = {p.name: p.translation(n_dof) for p in patches}
+    size = {"n_modes": n_modes, "f_max": f_max, "tolerance": tolerance, "damping_ratio": float(damping_ratio)}
+    if clamp is None:
+        kind, fixed, how = "free", np.zeros(0, dtype=np.int64), "free (no clamp)"
+        sized = free_modes(checked, LoadCase(groups, outputs), **size)
+        arrays = free_invariants(checked, sized.basis)
+        mass, com, inertia = float(sized.basis.mass), sized.basis.center_of_mass, sized.basis.inertia
+    else:
+        kind = "clamped"
+        fixed, how = clamped_dofs(checked, clamp)
+        free = np.setdiff1d(np.arange(n_dof), fixed)
+        if free.size == 0:
+            raise ParameterError("clamp", f"{how} fixes every DOF", "a clamp that leaves the body free to deform")
+        _check_held(checked, fixed, how)
+        groups.update(base_patterns(checked))
+        try:
+            sized = clamped_modes(checked, free, LoadCase(groups, outputs), **size)
+        except RuntimeError as exc:                    # SuperLU: "Factor is exactly singular"
+            raise ParameterError("clamp", f"{how} leaves the body free to move ({exc})",
+                                 "clamps that hold every rigid-body motion") from None
+        arrays = clamped_invariants(checked, sized.shapes)
+        mass = float(arrays["mass"])
+        com = arrays["first_moment"] / mass
+        J0 = arrays["J0"]
+        inertia = J0 - mass * (com @ com * np.eye(3) - np.outer(com, com))   # parallel axes: about the COM
+    shapes = sized.shapes
+    data = tuple(InterfaceData(name=p.name, point=p.point, nodes=p.nodes, dofs=p.dofs, D=p.D, shapes=shapes[p.dofs],
+                               moments=p.moments, rule=p.rule) for p in patches)
+    reduction = {"kind": kind, "clamp": how, "retained modes": int(sized.n_modes),
+                 "residual vectors": int(sized.eigenvalues.size - sized.n_modes),
+                 "size": f"n_modes = {n_modes}" if n_modes is not None else
+                 f"f_max = {f_max:g} Hz, tolerance = {1e-3 if tolerance is None else tolerance:g}",
+                 "static correction": "on" if sized.eigenvalues.size > sized.n_modes else "off",
+                 "damping ratio": float(damping_ratio)}
+    return FlexBody(kind=kind, name=name if name is not None else (structure.name or ""),
+                    dofs_per_node=int(checked.dofs_per_node), interfaces=data,
+                    eigenvalues=np.asarray(sized.eigenvalues, float), n_modes=int(sized.n_modes),
+                    natural_frequencies_hz=np.asarray(sized.natural_hz, float), mass=mass,
+                    center_of_mass=np.asarray(com, float), inertia=np.asarray(inertia, float),
+                    damping_ratio=float(damping_ratio), arrays=arrays, provenance=_provenance(structure, reduction),
+                    messages=tuple(sized.messages), clamped_dofs=fixed)
+
+
+def _check_held(structure, fixed: np.ndarray, how: str) -> None:
+    """Refuse clamps that leave a rigid-body motion free: the six rigid fields (translations, rotations about the
+    centroid, scaled by the size) restricted to the fixed DOFs must have rank 6."""
+    nodes = np.asarray(structure.nodes, dtype=float)
+    centre = nodes.mean(axis=0)
+    size = float(np.linalg.norm(np.ptp(nodes, axis=0))) or 1.0
+    T, S0 = rigid_fields(nodes - centre, int(structure.dofs_per_node))
+    rigid = np.hstack([T, S0 / size])[fixed]
+    sv = np.linalg.svd(rigid, compute_uv=False) if rigid.size else np.zeros(0)
+    rank = int(np.count_nonzero(sv > _FREE_MOTION_RTOL * max(sv.max(initial=0.0), 1.0)))
+    if rank < 6:
+        raise ParameterError("clamp", f"{how} leaves the body free to move ({6 - rank} rigid-body motion(s) not held)",
+                             "clamps that hold every rigid-body motion (e.g. three non-colinear nodes of a solid, "
+                             "or one beam node)")

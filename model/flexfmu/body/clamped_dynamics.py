@@ -1,0 +1,128 @@
+"""Time integration and outputs of a clamped body on a moving base (flexfmu.body.clamped, Eqs. (B2), (B4)-(B6)),
+from the reduced model alone (flexfmu.body.model.FlexBody).
+
+With the base motion (a0, w, alpha) and the interface loads held over a step, (B2) is a linear system with
+constant matrices, x' = A x + [0; r], x = [eta; eta_d]: advanced exactly by the augmented matrix exponential
+(zero-order hold, as flexfmu.ffr.dynamics), cached per step size and held base rotation.
+"""
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from flexfmu.core.blas import single_thread
+from flexfmu.core.cache import BoundedCache
+from flexfmu.core.vec3 import cross
+
+#: step maps memoised per instance (key: step size, w, alpha); starts afresh when full (inputs varying every step)
+MAP_MEMO_SIZE = 65
+
+
+class ClampedDynamics:
+    """(B2) and its outputs for the arrays of :func:`flexfmu.body.clamped.clamped_invariants` (``inv``), the
+    retained coordinates' eigenvalues omega^2 (m,), the damping ratio and the interfaces: ``rows`` a list of
+    (6, m) maps D Phi_patch (translation, rotation of the point per coordinate), ``points`` (n_if, 3) and
+    ``moments`` (n_if,) bools."""
+
+    def __init__(self, inv: dict, eigenvalues: np.ndarray, damping_ratio: float, rows, points, moments):
+        self.inv = inv
+        self.lam = np.asarray(eigenvalues, dtype=float)
+        self.m = self.lam.size
+        self.zeta = float(damping_ratio)
+        self.damping = 2.0 * self.zeta * np.sqrt(np.maximum(self.lam, 0.0))
+        self.rows = [np.asarray(r, dtype=float) for r in rows]
+        self.points = np.asarray(points, dtype=float).reshape(-1, 3)
+        self.moments = [bool(x) for x in moments]
+        self.mass = float(inv["mass"])
+        self.mc = inv["first_moment"]
+        self.J0 = inv["J0"]
+        self._maps = BoundedCache(MAP_MEMO_SIZE)
+
+    # ---------------------------------------------------------------- (B2)
+    def matrices(self, w, alpha):
+        """K_eff = Lambda + H and C_eff = Z + G of (B2) for the held base rotation."""
+        B, N = self.inv["B"], self.inv["N"]
+        K = np.diag(self.lam) + np.einsum("k,kij->ij", alpha, B) - np.einsum("k,l,klij->ij", w, w, N)
+        C = np.diag(self.damping) + np.einsum("k,kij->ij", w, B - B.transpose(0, 2, 1))
+        return K, C
+
+    def modal_force(self, loads, a0, w, alpha) -> np.ndarray:
+        """Right side of (B2): loads (n_if, 6) [F, M] per interface, body frame."""
+        r = -self.inv["Sa"] @ a0 - self.inv["Sw"] @ alpha + np.einsum("k,l,klj->j", w, w, self.inv["R"])
+        for D, ld, mom in zip(self.rows, loads, self.moments):
+            r += D[:3].T @ ld[:3]
+            if mom:
+                r += D[3:].T @ ld[3:]
+        return r
+
+    def transition(self, h: float, w, alpha):
+        """(Ad, Bd): x(t + h) = Ad x(t) + Bd r for r held (exact), cached per (h, w, alpha)."""
+        key = (h,) + tuple(w) + tuple(alpha)
+        hit = self._maps.get(key)
+        if hit is not None:
+            return hit
+        m = self.m
+        K, C = self.matrices(w, alpha)
+        A = np.zeros((3 * m, 3 * m))          # [[A, B], [0, 0]] with B = [0; I]: e^{Ah} and int e^{As} ds B
+        A[:m, m:2 * m] = np.eye(m)
+        A[m:2 * m, :m] = -K
+        A[m:2 * m, m:2 * m] = -C
+        A[m:2 * m, 2 * m:] = np.eye(m)
+        with single_thread():
+            E = sla.expm(A * h)
+        hit = self._maps[key] = (E[:2 * m, :2 * m].copy(), E[:2 * m, 2 * m:].copy())
+        return hit
+
+    def step(self, x: np.ndarray, h: float, loads, a0, w, alpha) -> np.ndarray:
+        """x = [eta; eta_d] after h (s) with everything held."""
+        Ad, Bd = self.transition(float(h), tuple(np.asarray(w, float).tolist()),
+                                 tuple(np.asarray(alpha, float).tolist()))
+        return Ad @ x + Bd @ self.modal_force(loads, a0, w, alpha)
+
+    def acceleration(self, x, loads, a0, w, alpha) -> np.ndarray:
+        K, C = self.matrices(w, alpha)
+        m = self.m
+        return self.modal_force(loads, a0, w, alpha) - C @ x[m:] - K @ x[:m]
+
+    def static(self, loads, a0, w, alpha) -> np.ndarray:
+        """Equilibrium x = [eta; 0] of (B2) for held inputs (K_eff eta = r)."""
+        K, _ = self.matrices(w, alpha)
+        return np.concatenate([np.linalg.solve(K, self.modal_force(loads, a0, w, alpha)), np.zeros(self.m)])
+
+    # ---------------------------------------------------------------- outputs
+    def interface_motion(self, x, eta_dd, a0, w, alpha):
+        """Per interface: position x_I + u_I, elastic velocity u_I_d (relative to the base) and absolute
+        acceleration (accelerometer) in body components, shape (n_if, 3, 3)."""
+        m = self.m
+        out = np.empty((len(self.rows), 3, 3))
+        for i, D in enumerate(self.rows):
+            y = self.points[i] + D[:3] @ x[:m]
+            v = D[:3] @ x[m:]
+            out[i, 0] = y
+            out[i, 1] = v
+            out[i, 2] = (a0 + cross(alpha, y) + cross(w, cross(w, y)) + 2.0 * cross(w, v) + D[:3] @ eta_dd)
+        return out
+
+    def _field(self, f: int, eta, eta_d, eta_dd, w, alpha) -> np.ndarray:
+        """V^T f1 of (B6) for the test field f (0: T, 1: S0)."""
+        inv = self.inv
+        Va, Vq, Vr = inv["Va"][f], inv["Vq"][f], inv["Vr"][f]
+        return (inv["Vp"][f] @ eta_dd + np.einsum("k,kcj,j->c", alpha, Va, eta) + np.einsum("k,kcj,j->c", w, Va, eta_d)
+                - np.einsum("k,l,klcj,j->c", w, w, Vq, eta) - np.einsum("k,kcj,j->c", w, Vr, eta_d))
+
+    def reactions(self, x, eta_dd, loads, a0, w, alpha):
+        """Force and moment (about the body origin O) the structure exerts on its clamps, body frame: (B4)-(B6)."""
+        m = self.m
+        eta, eta_d = x[:m], x[m:]
+        mc, J0 = self.mc, self.J0
+        F_in = self.mass * a0 + cross(alpha, mc) + cross(w, cross(w, mc)) + self._field(0, eta, eta_d, eta_dd, w, alpha)
+        c = np.concatenate([a0, alpha, np.outer(w, w).ravel()])       # weights of the 15 base patterns
+        M_in = (cross(mc, a0) + J0 @ alpha + cross(w, J0 @ w) + self._field(1, eta, eta_d, eta_dd, w, alpha)
+                + np.einsum("p,pcj,j->c", c, self.inv["arm"], eta))
+        F_ext, M_ext = np.zeros(3), np.zeros(3)
+        for i, (D, ld) in enumerate(zip(self.rows, loads)):
+            F_ext += ld[:3]
+            M_ext += cross(self.points[i] + D[:3] @ eta, ld[:3])
+            if self.moments[i]:
+                M_ext += ld[3:]
+        return F_ext - F_in, M_ext - M_in

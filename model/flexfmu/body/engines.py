@@ -1,0 +1,203 @@
+"""The two engines behind flexfmu.body.simulator.FlexBodySimulator: a free body (reframe kernels,
+flexfmu.body.free) and a clamped one (exact zero-order hold, flexfmu.body.clamped_dynamics).  Each holds the
+state and the held inputs, splits a communication step into internal steps (counted before stepping) and gives
+the outputs in the order of flexfmu.body.simulator.output_names."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from flexfmu.body.clamped_dynamics import ClampedDynamics
+from flexfmu.body.free import FreeDynamics
+from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit, round_down
+from flexfmu.errors import NonFiniteError, ParameterError, StepRejected
+from flexfmu.reframe.modeldata import RK4_STABILITY_LIMIT
+
+AUTO_STEP_FRACTION = 0.9           # of the RK4 stability limit, for internal_step = 0 (as ReframeBody)
+
+
+def too_many_steps(cap: int, needed: float, step_size: float, h_ok: float, cause: str) -> Exception:
+    """StepRejected when a communication step of at least MIN_COMMUNICATION_STEP would fit the cap (h_ok: the
+    largest that does), else ParameterError naming ``cause``."""
+    count = f"{math.ceil(needed)}" if math.isfinite(needed) and needed < 1e15 else f"{needed:.3g}"
+    if h_ok >= MIN_COMMUNICATION_STEP:
+        return StepRejected("max_internal_steps", f"needs {count} internal steps for this communication step of "
+                            f"{step_size:g} s (cap {cap}); take a smaller communication step (<= "
+                            f"{round_down(h_ok):.4g} s) or raise max_internal_steps")
+    return ParameterError(cause, f"even a {MIN_COMMUNICATION_STEP:g} s communication step needs more than "
+                          f"max_internal_steps = {cap} internal steps",
+                          "a smaller value, or a larger max_internal_steps")
+
+
+class FreeEngine:
+    """A free body: state y (flexfmu.reframe.layout.STATE) and t; inputs [F (3), M (3 if moments)] per interface,
+    global."""
+
+    def __init__(self, body, config, zeta: float, names):
+        c = config
+        self.names = list(names)
+        ifs = body.interfaces
+        self.dyn = dyn = FreeDynamics(body.arrays, body.eigenvalues, zeta, c.scheme, [i.rows for i in ifs],
+                                      [i.point for i in ifs], [i.moments for i in ifs])
+        self.moments = [i.moments for i in ifs]
+        self.SV = np.zeros((1, 3, len(ifs), 6))
+        self.y = dyn.initial_state(np.array([c.v0_x, c.v0_y, c.v0_z]), np.array([c.omega0_1, c.omega0_2, c.omega0_3]))
+        self.t = 0.0
+        self.cap = c.max_internal_steps
+        self.rk4 = c.scheme == "consistent"
+        self.limit = RK4_STABILITY_LIMIT / dyn.omega_max if (self.rk4 and dyn.omega_max > 0) else math.inf
+        shortest = MIN_COMMUNICATION_STEP / self.cap
+        if c.internal_step > self.limit:
+            raise ParameterError("internal_step", f"{c.internal_step:g} s exceeds the RK4 stability limit 2.8 / "
+                                 f"omega_max = {self.limit:.6g} s", f"0 (automatic) or {shortest:.3g} .. "
+                                 f"{self.limit:.6g} s, or scheme exponential")
+        self.internal_step = c.internal_step
+        self.max_step = c.internal_step if c.internal_step > 0 else (AUTO_STEP_FRACTION * self.limit if self.rk4
+                                                                    else math.inf)
+        if self.max_step < shortest:
+            raise ParameterError("scheme" if c.internal_step == 0 else "internal_step",
+                                 f"internal steps of {self.max_step:.3g} s need more than max_internal_steps = "
+                                 f"{self.cap} for a {MIN_COMMUNICATION_STEP:g} s communication step",
+                                 "scheme exponential, fewer modes, or a larger max_internal_steps")
+        self.theta_max = 0.5 * c.tolerance ** 0.25           # rad per internal step (exponential, automatic)
+        self.inputs_vec = np.zeros(sum(6 if m else 3 for m in self.moments))
+
+    def hold(self, u: np.ndarray) -> None:
+        self.inputs_vec = u
+        k = 0
+        for i, mom in enumerate(self.moments):
+            n = 6 if mom else 3
+            self.SV[0, :, i, :n] = u[k:k + n]
+            k += n
+
+    def split(self, h: float):
+        """(internal steps, reason) for a communication step h (s); StepRejected / ParameterError beyond the cap."""
+        if not self.rk4 and self.internal_step == 0:
+            out = self.dyn.outputs(self.y, self.SV, max_elastic=False)
+            w, a = float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16]))
+            if not (math.isfinite(w) and math.isfinite(a)):
+                raise NonFiniteError(self.culprit() or "state", "the angular velocity or acceleration overflows "
+                                     "(not finite)")
+            ratio = self._rotation_count(h, w, a)
+            if not ratio <= self.cap:
+                lo, hi = 0.0, h                              # the longest step within the cap (bisection)
+                for _ in range(200):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if self._rotation_count(mid, w, a) <= self.cap else (lo, mid)
+                raise too_many_steps(self.cap, ratio, h, lo, self.culprit() or "state")
+            n = max(1, math.ceil(ratio * (1 - 1e-12)))
+            return n, (f"scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = {self.theta_max:.3g} "
+                       f"rad (|omega| = {w:.4g} rad/s, |alpha| = {a:.4g} rad/s^2, held)")
+        ratio = h / self.max_step * (1 - 1e-12)
+        if not ratio <= self.cap:
+            raise too_many_steps(self.cap, ratio, h, self.cap * self.max_step, "internal_step")
+        n = max(1, math.ceil(ratio))
+        why = (f"internal_step = {self.internal_step:g} s" if self.internal_step > 0 else
+               f"scheme consistent (RK4): 90 % of the stability limit {self.limit:.4g} s")
+        return n, why
+
+    def _rotation_count(self, h: float, w: float, a: float) -> float:
+        """h / x with x the longest internal step whose rotation (w + a h) x + a x^2 / 2 stays within theta_max:
+        the angular velocity bounded by its value at the end of the communication step."""
+        wm = w + a * h
+        root = math.sqrt(wm * wm + 2.0 * a * self.theta_max)
+        return h * (wm + root) / (2.0 * self.theta_max) if math.isfinite(root) else math.inf
+
+    def culprit(self) -> str | None:
+        """The held input of largest magnitude (a force or moment), else None."""
+        return culprit(dict(zip(self.names, np.abs(self.inputs_vec).tolist())))
+
+    def advance(self, h: float, n: int) -> bool:
+        y, t, _, status = self.dyn.steps(self.y, self.t, h / n, n, self.SV)
+        if status:
+            return False
+        self.y, self.t = y, t
+        return True
+
+    def outputs(self, include_deferred: bool = True) -> np.ndarray:
+        return self.dyn.outputs(self.y, self.SV, include_deferred)
+
+    def get(self) -> dict:
+        return {"t": self.t, "y": self.y.tolist()}
+
+    def put(self, data: dict) -> None:
+        y = np.array(data["y"], dtype=float)
+        if y.shape != self.y.shape or not np.all(np.isfinite(y)) or not math.isfinite(float(data["t"])):
+            raise ParameterError("FMUstate", "state of the wrong size or not finite", "a state of this body")
+        self.y, self.t = y, float(data["t"])
+
+
+class ClampedEngine:
+    """A clamped body: x = [eta; eta_d] and t; inputs [F, M] per interface then a0, w, alpha (body frame)."""
+
+    def __init__(self, body, config, zeta: float, names):
+        self.names = list(names)
+        ifs = body.interfaces
+        self.dyn = ClampedDynamics(body.arrays, body.eigenvalues, zeta, [i.rows for i in ifs], [i.point for i in ifs],
+                                   [i.moments for i in ifs])
+        self.moments = [i.moments for i in ifs]
+        self.x = np.zeros(2 * self.dyn.m)
+        self.t = 0.0
+        self.cap = config.max_internal_steps
+        self.internal_step = config.internal_step
+        if 0 < self.internal_step < MIN_COMMUNICATION_STEP / self.cap:
+            raise ParameterError("internal_step", f"{self.internal_step:g} s needs more than max_internal_steps = "
+                                 f"{self.cap} for a {MIN_COMMUNICATION_STEP:g} s communication step",
+                                 f"0 (one exact step) or >= {MIN_COMMUNICATION_STEP / self.cap:.3g} s")
+        self.loads = np.zeros((len(ifs), 6))
+        self.a0 = self.w = self.alpha = np.zeros(3)
+        self.inputs_vec = np.zeros(sum(6 if m else 3 for m in self.moments) + 9)
+
+    def hold(self, u: np.ndarray) -> None:
+        self.inputs_vec = u
+        k = 0
+        for i, mom in enumerate(self.moments):
+            n = 6 if mom else 3
+            self.loads[i, :n] = u[k:k + n]
+            k += n
+        self.a0, self.w, self.alpha = u[k:k + 3].copy(), u[k + 3:k + 6].copy(), u[k + 6:k + 9].copy()
+
+    def split(self, h: float):
+        if self.internal_step == 0:
+            return 1, "exact zero-order hold: one internal step of any length"
+        ratio = h / self.internal_step * (1 - 1e-12)
+        if not ratio <= self.cap:
+            raise too_many_steps(self.cap, ratio, h, self.cap * self.internal_step, "internal_step")
+        return max(1, math.ceil(ratio)), f"internal_step = {self.internal_step:g} s (each exact)"
+
+    def culprit(self) -> str | None:
+        """The held input most likely behind an overflow (the spin enters squared), else None."""
+        u = np.abs(self.inputs_vec).tolist()
+        k = len(u) - 9
+        scores = {self.names[i]: (u[i] * u[i] if k + 3 <= i < k + 6 else u[i]) for i in range(len(u))}
+        return culprit(scores)
+
+    def advance(self, h: float, n: int) -> bool:
+        with np.errstate(all="ignore"):
+            Ad, Bd = self.dyn.transition(h / n, tuple(self.w.tolist()), tuple(self.alpha.tolist()))
+            b = Bd @ self.dyn.modal_force(self.loads, self.a0, self.w, self.alpha)
+            x = self.x
+            for _ in range(n):                              # n <= max_internal_steps (split)
+                x = Ad @ x + b
+        if not np.all(np.isfinite(x)):
+            return False
+        self.x, self.t = x, self.t + h
+        return True
+
+    def outputs(self, include_deferred: bool = True) -> np.ndarray:
+        d, x = self.dyn, self.x
+        a0, w, al = self.a0, self.w, self.alpha
+        eta_dd = d.acceleration(x, self.loads, a0, w, al)
+        motion = d.interface_motion(x, eta_dd, a0, w, al)
+        F, M = d.reactions(x, eta_dd, self.loads, a0, w, al)
+        return np.concatenate([motion.ravel(), F, M])
+
+    def get(self) -> dict:
+        return {"t": self.t, "x": self.x.tolist()}
+
+    def put(self, data: dict) -> None:
+        x = np.array(data["x"], dtype=float)
+        if x.shape != self.x.shape or not np.all(np.isfinite(x)) or not math.isfinite(float(data["t"])):
+            raise ParameterError("FMUstate", "state of the wrong size or not finite", "a state of this body")
+        self.x, self.t = x, float(data["t"])
