@@ -1,6 +1,10 @@
 """Command-line interface: a thin shell over library functions.
 
-    flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json]
+    flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json] [--plot PNG]
+    flexfmu modal MODEL [--material E,NU,RHO] [--length-unit U] [--nodes FILE] [--clamp SPEC] [--modes K]
+                  [--json] [--plot PNG]
+    flexfmu export MODEL -o OUT.fmu [--material E,NU,RHO] [--nodes FILE] [--clamp SPEC]
+                  [--interface NAME=X,Y,Z]... [--modes N | --f-max HZ [--tolerance TOL]] [--damping ZETA]
     flexfmu build [--out dist]
     flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
@@ -26,7 +30,88 @@ from flexfmu.ffr.report import PAPER_SCENE, format_table, modal_analysis
 from flexfmu.ffr.scene import builtin_scene_names, load_scene
 
 
+def _load_user_model(args: argparse.Namespace):
+    """The Structure of MODEL with --material, --length-unit and --nodes (flexfmu.importers)."""
+    from flexfmu.importers import load_structure
+
+    from flexfmu.importers.units import material_from_text
+
+    options = {"material": material_from_text(args.material), "length_unit": args.length_unit,
+               "coordinates": args.nodes}
+    source = args.model if hasattr(args, "model") else args.scene
+    return load_structure(source, **{k: v for k, v in options.items() if v is not None})
+
+
+def _is_scene(text: str) -> bool:
+    """A built-in scene or a scene JSON (it has "points"; a model JSON has "mesh")."""
+    if text in builtin_scene_names():
+        return True
+    path = Path(text)
+    if path.suffix.lower() != ".json" or not path.is_file():
+        return False
+    try:
+        return "points" in json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, OSError, UnicodeDecodeError, TypeError):
+        return True                     # load_scene reports what is wrong with it
+
+
+def _modal_structure(args: argparse.Namespace) -> int:
+    """Natural frequencies of an imported model: clamped (--clamp or the file's constraints) or free."""
+    from flexfmu.body.build import clamp_from_text
+    from flexfmu.body.modes import natural_modes
+
+    if args.boundary is not None or args.elements_per_segment or args.rotary_inertia:
+        raise ParameterError("boundary", "--boundary, --elements-per-segment and --rotary-inertia are scene options",
+                             "a scene, or --clamp for a model file")
+    structure = _load_user_model(args)
+    modes = natural_modes(structure, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes)
+    if args.json:
+        print(json.dumps({"model": str(args.scene), "name": structure.name, "kind": modes.kind,
+                          "clamp": modes.clamp, "frequencies_hz": [float(f) for f in modes.frequencies_hz],
+                          "n_dof": int(structure.n_dof), "n_nodes": int(structure.n_nodes),
+                          "mass_kg": float(modes.mass)}))
+    else:
+        print(modes.table())
+    if args.plot is not None:
+        from flexfmu.body.modes import plot_modes
+        print(f"wrote {plot_modes(structure, modes, args.plot)}")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    """MODEL -> a self-contained FMU of a free or clamped flexible body with named interfaces."""
+    from flexfmu.body.build import build_body, clamp_from_text
+    from flexfmu.body.interfaces import interface_from_text
+    from flexfmu.fmi.export import check_target, export_fmu
+
+    check_target(args.output)                 # before the work: a bad name is known now
+
+    if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
+        raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
+                             "[--tolerance TOL]")
+    if args.modes is None and args.f_max is None:
+        raise ParameterError("modes", "no model size given", "--modes N, or --f-max HZ [--tolerance TOL]")
+    if not args.interface:
+        raise ParameterError("interface", "none given", "at least one --interface NAME=X,Y,Z | NAME=SET")
+    interfaces = [interface_from_text(text) for text in args.interface]
+    structure = _load_user_model(args)
+    body = build_body(structure, interfaces=interfaces, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes,
+                      f_max=args.f_max,
+                      tolerance=args.tolerance, damping_ratio=args.damping)
+    for line in body.messages:
+        print(f"flexfmu export: {line}", file=sys.stderr)
+    target = export_fmu(body, args.output)
+    print(f"wrote {target}: {body.summary()}")
+    return 0
+
+
 def _modal(args: argparse.Namespace) -> int:
+    if not _is_scene(args.scene):
+        return _modal_structure(args)
+    for option in ("material", "length_unit", "nodes", "clamp"):
+        if getattr(args, option) is not None:
+            raise ParameterError(option.replace("_", "-"), "is an option of model files, not of scenes",
+                                 "--boundary for a scene")
     scene = load_scene(args.scene)
     boundary = args.boundary or "scene"
     result = modal_analysis(scene, boundary, n_modes=args.modes, elements_per_segment=args.elements_per_segment,
@@ -46,6 +131,14 @@ def _modal(args: argparse.Namespace) -> int:
         }))
     else:
         print(format_table(scene.name, result))
+    if args.plot is not None:
+        from flexfmu.body.modes import NaturalModes, plot_modes
+
+        model = result.model
+        structure = model.structure()
+        modes = NaturalModes(scene.name, "clamped" if model.clamped_nodes.size else "free", f"boundary {boundary}",
+                             result.modes.frequencies_hz, model.B2 @ result.modes.shapes, float("nan"))
+        print(f"wrote {plot_modes(structure, modes, args.plot)}")
     return 0
 
 
@@ -247,13 +340,34 @@ def _cosim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_model_options(parser: argparse.ArgumentParser) -> None:
+    """The options of a model file (flexfmu.importers.load_structure) and its clamp."""
+    group = parser.add_argument_group("model file")
+    group.add_argument("--material", default=None, metavar="E,NU,RHO",
+                       help="meshes: Young's modulus (Pa), Poisson's ratio, density (kg/m^3); default: the model "
+                            "JSON beside the mesh")
+    group.add_argument("--length-unit", default=None, choices=("m", "cm", "mm", "in"),
+                       help="the file's length unit (Nastran, MAPDL: its consistent unit system); default m")
+    group.add_argument("--nodes", type=Path, default=None, metavar="FILE",
+                       help="MAPDL .full: the .cdb or .rst with the node coordinates (default: beside the .full)")
+    group.add_argument("--clamp", default=None, metavar="SPEC",
+                       help="clamp node sets (SET or SET1,SET2,...: all their DOFs), the file's constrained DOFs "
+                            "('file'; the default when the file has some), or 'free' for a free body")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
-    modal = sub.add_parser("modal", help="natural frequencies of a bent-rod scene",
-                           description="Natural frequencies (Hz) of a scene under a set of clamps.")
-    modal.add_argument("scene", help=f"built-in scene ({', '.join(builtin_scene_names())}) or path to a scene JSON")
+    modal = sub.add_parser("modal", help="natural frequencies of a scene or any importable model",
+                           description="Natural frequencies (Hz) of a bent-rod scene under a set of clamps, or of any "
+                                       "model flexfmu imports (mesh with material, model .json, Nastran .bdf, MAPDL "
+                                       ".full, .npz, paper_plate): clamped by --clamp or the file's constrained "
+                                       "DOFs, else free (elastic modes only). --plot draws the mode shapes.")
+    modal.add_argument("scene", metavar="MODEL",
+                       help=f"built-in scene ({', '.join(builtin_scene_names())}), a scene JSON, or a model file/spec")
+    _add_model_options(modal)
+    modal.add_argument("--plot", type=Path, default=None, metavar="PNG", help="draw the mode shapes into PNG")
     modal.add_argument("--boundary", choices=BOUNDARY_PRESETS, default=None,
                        help="clamp preset; default: the scene's own clamps. "
                             + "; ".join(f"{k}: {v}" for k, v in BOUNDARY_HELP.items()))
@@ -263,6 +377,33 @@ def build_parser() -> argparse.ArgumentParser:
     modal.add_argument("--rotary-inertia", action="store_true", help="include rotary inertia of bending")
     modal.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     modal.set_defaults(func=_modal)
+
+    export = sub.add_parser(
+        "export", help="a model file as a self-contained FMU of a flexible body with named interfaces",
+        description="Turn a structural model (a mesh with its material, a Nastran deck, an MAPDL .full, a .npz or a "
+                    "beam scene) into an FMI 2.0 co-simulation FMU: a free body (reframe integrator) or, with --clamp "
+                    "or constrained DOFs in the file, a body clamped on a moving base; per interface NAME the inputs "
+                    "NAME.F_x/y/z (and NAME.M_x/y/z) and the outputs NAME.pos_*/vel_*/acc_*, plus the body outputs "
+                    "and f_1 ... f_6. Lengths and coordinates in m (after --length-unit scaling). See docs/export.md.")
+    export.add_argument("model", metavar="MODEL", help="model file or spec (mesh, model .json, .bdf, .full, .npz, "
+                                                       "beam:<scene>, paper_plate)")
+    export.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.fmu",
+                        help="the FMU to write; its stem is the model identifier")
+    _add_model_options(export)
+    export.add_argument("--interface", action="append", default=[], metavar="NAME=X,Y,Z",
+                        help="an interface (repeatable): NAME=X,Y,Z (the nodes around the point), NAME=X,Y,Z,R "
+                             "(the nodes within R m), NAME=SET (a node set; the point at its centre) or "
+                             "NAME=SET@X,Y,Z")
+    size = export.add_argument_group("model size (one of)")
+    size.add_argument("--modes", type=int, default=None, metavar="N", help="keep N elastic modes")
+    size.add_argument("--f-max", type=float, default=None, metavar="HZ",
+                      help="keep the modes up to HZ, and more until the interfaces' truncation error is within "
+                           "--tolerance, with a static correction at the interfaces")
+    size.add_argument("--tolerance", type=float, default=None, metavar="TOL",
+                      help="relative truncation error at the interfaces for --f-max (default 1e-3)")
+    export.add_argument("--damping", type=float, default=0.02, metavar="ZETA",
+                        help="modal damping ratio (default 0.02; an FMU parameter too)")
+    export.set_defaults(func=_export)
 
     build = sub.add_parser("build", help="build the FMUs of flexfmu.fmi.registry into dist/")
     build.add_argument("--out", type=Path, default=None, help="output folder (default: ./dist)")

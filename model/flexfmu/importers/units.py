@@ -86,3 +86,17 @@ def check_material(value, where: str = "material", path=None) -> Material:
     if numbers["rho"] <= 0:
         fail(f"{where}.rho", f"{numbers['rho']!r} is not > 0")
     return Material(**numbers)
+
+
+def material_from_text(text: str | None):
+    """"E,NU,RHO" -> {"E", "nu", "rho"} (checked by the importers), or None."""
+    if text is None:
+        return None
+    allowed = "E,NU,RHO: Young's modulus (Pa), Poisson's ratio, density (kg/m^3), e.g. 2.1e11,0.3,7850"
+    try:
+        values = [float(part) for part in text.split(",")]
+    except ValueError:
+        raise ParameterError("material", f"{text!r} is not numeric", allowed) from None
+    if len(values) != 3:
+        raise ParameterError("material", repr(text), allowed)
+    return dict(zip(("E", "nu", "rho"), values))
