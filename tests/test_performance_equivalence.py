@@ -144,7 +144,7 @@ def test_modal_step_equals_physical_space_step(model, plate, beam):
     rng = np.random.default_rng(6)
     s = integ.initial_state(v0=(0.3, -0.2, 0.1), omega0=(5.0, 2.0, 8.0), q0=1e-5 * rng.standard_normal(n),
                             qd0=1e-3 * rng.standard_normal(n))
-    node = structure.meta["points"]["load"] if model == "plate" else structure.nodes.shape[0] - 1
+    node = structure.points["load"] if model == "plate" else structure.nodes.shape[0] - 1
     loads = [PointLoad(node, half_sine_pulse([30.0, 10.0, 30.0], 0.002)),
              PointLoad(0, [0.0, 5.0, -3.0], follower=True,
                        moment=(lambda t: np.array([0.1, 0.0, 0.2 * t])) if model == "beam" else None)]

@@ -120,7 +120,7 @@ def test_matrices_exactly_symmetric(coarse):
 
 
 def test_named_points(coarse):
-    pts = coarse.meta["points"]
+    pts = coarse.points
     np.testing.assert_array_equal(coarse.nodes[pts["load"]], [-0.5, 0.0, 0.01])
     assert (pts["R"], pts["P"], pts["Q"]) == (pts["P1"], pts["P2"], pts["P3"])
     assert coarse.dofs_per_node == 3 and coarse.n_dof == 3 * coarse.n_nodes

@@ -126,7 +126,7 @@ def test_rigid_limit_plate_paper_load(plate):
     res = {}
     for scheme in ("consistent", "paper"):
         integ = ReframeIntegrator(plate, mb, scheme=scheme)
-        assert integ.reference_nodes == tuple(plate.meta["points"][k] for k in ("P1", "P2", "P3"))
+        assert integ.reference_nodes == tuple(plate.points[k] for k in ("P1", "P2", "P3"))
         res[scheme] = integ.run(1.0, 2e-4, PointLoad(LOAD_POINT, force), every=250)
     node = int(np.argmin(np.linalg.norm(plate.nodes - LOAD_POINT, axis=1)))
     t_ref, w_ref, _ = rigid_reference(plate, node, force, np.zeros(3), res["consistent"].t, breaks=(0.01,))

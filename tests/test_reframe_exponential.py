@@ -56,7 +56,7 @@ def test_single_free_mode_matches_the_analytic_damped_oscillator(plate):
     Then q'' + 2 zeta omega q' + omega^2 q = Q exactly, Q = phi^T f (from the mode shape here), and the
     exponential step is exact for it (held load) whatever dt: round-off at dt omega = 0.5, 5 and 20."""
     mb = modal_basis(plate, 8, 0.02)
-    pts = plate.meta["points"]
+    pts = plate.points
     a, b = pts["P1"], pts["P7"]                                # opposite corners of the plate
     e = plate.nodes[b] - plate.nodes[a]
     e /= np.linalg.norm(e)

@@ -56,7 +56,7 @@ def runs():
     plate = paper_plate((20, 2, 1))
     mb = modal_basis(plate, 10, 0.05)
     load = PointLoad(LOAD_POINT, half_sine_pulse(FORCE, PULSE))
-    nodes = {"load": plate.meta["points"]["load"],
+    nodes = {"load": plate.points["load"],
              "far": int(np.argmin(np.linalg.norm(plate.nodes - FAR_POINT, axis=1)))}
     out = {}
     for arm in (True, False):

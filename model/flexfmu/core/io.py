@@ -182,7 +182,8 @@ def validate_structure(structure: Structure) -> Structure:
     sets = _check_node_sets(getattr(structure, "node_sets", {}) or {}, "structure.node_sets", nodes.shape[0])
     provenance = getattr(structure, "provenance", None) or Provenance()
     return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=structure.name,
-                     meta=dict(structure.meta), constrained_dofs=constrained, node_sets=sets, provenance=provenance)
+                     meta=dict(structure.meta), points=dict(getattr(structure, "points", {}) or {}),
+                     constrained_dofs=constrained, node_sets=sets, provenance=provenance)
 
 
 def _check_constrained(values, name: str, n_dof: int) -> np.ndarray:

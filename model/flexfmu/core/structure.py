@@ -41,6 +41,9 @@ class Structure:
     M, K:             (n_dof, n_dof) sparse CSR, DOF order node by node; SI units
                       (kg, kg m, kg m^2 / N/m, N, N m per rad).
     name:             free text for reports.
+    meta:             free-form details for reports (divisions, material, ...); nothing in the numerics reads it.
+    points:           named node indices (the plate's P1 ... P8 and load point; R, P, Q: the reference points
+                      of the paper's reframe scheme): what the integrator and the model defaults read.
     constrained_dofs: sorted DOF indices the model file fixes (ANSYS D, Nastran SPC); M and K still hold
                       them: a clamped body drops them, a free body ignores them.
     node_sets:        named node index sets from the file (gmsh physical groups, Abaqus NSET, Nastran
@@ -54,6 +57,7 @@ class Structure:
     K: sp.csr_matrix
     name: str = ""
     meta: dict = field(default_factory=dict)
+    points: dict = field(default_factory=dict)
     constrained_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     node_sets: dict = field(default_factory=dict)
     provenance: Provenance = field(default_factory=Provenance)

@@ -141,7 +141,7 @@ class ReframeIntegrator:
     basis:              :class:`~flexfmu.linalg.modal_basis.ModalBasis` (6 rigid + n flexible modes,
                         mass-orthonormal), or an int n: ``modal_basis(structure, n)`` (5% damping).
     reference_points:   (R, P, Q): node indices or coordinates (nearest node).  Default: the
-                        structure's ``meta["points"]`` R, P, Q if present (the plate: P1, P2, P3),
+                        structure's ``points`` R, P, Q if present (the plate: P1, P2, P3),
                         else R = the node nearest the centre of mass, P = the node farthest from R,
                         Q = the node farthest from the line RP.  Used only by Eqs. (36)-(37) of the
                         paper scheme: required non-colinear there, and whenever given explicitly (any
@@ -216,7 +216,7 @@ class ReframeIntegrator:
     def _setup_reference_points(self, reference_points):
         d = self.data
         if reference_points is None:
-            pts = d.structure.meta.get("points", {}) if isinstance(d.structure.meta, dict) else {}
+            pts = getattr(d.structure, "points", None) or {}
             if all(k in pts for k in ("R", "P", "Q")):
                 idx = [int(pts["R"]), int(pts["P"]), int(pts["Q"])]
             else:

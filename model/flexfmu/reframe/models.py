@@ -16,6 +16,8 @@ beam, .npz     the last node                          the first node
 """
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from flexfmu.core.checks import path_exists_as, shown
@@ -121,32 +123,34 @@ def _cached_paper_plate(**options) -> Structure:
             M, K = (sp.csr_matrix((hit[f"{m}_data"], hit[f"{m}_indices"], hit[f"{m}_indptr"]), shape=(n_dof, n_dof))
                     for m in "MK")
             return Structure(nodes=hit["nodes"], dofs_per_node=3, M=M, K=K, name=str(hit["name"]),
-                             meta=cache.meta_from_json(str(hit["meta"])))
+                             meta=cache.meta_from_json(str(hit["meta"])),
+                             points={str(k): int(v) for k, v in json.loads(str(hit["points"])).items()})
         except (KeyError, ValueError, TypeError):
             pass                                   # an entry of another layout: assemble again
     structure = plate.paper_plate(divisions, corner_mass=corner_mass)
     cache.store("paper_plate", key, {"nodes": structure.nodes, "name": np.array(structure.name),
                                      "meta": np.array(cache.meta_to_json(structure.meta)),
+                                     "points": np.array(json.dumps(structure.points)),
                                      **{f"{m}_{part}": getattr(A, part) for m, A in (("M", structure.M), ("K", structure.K))
                                         for part in ("data", "indices", "indptr")}})
     return structure
 
 
 def _named_point(structure: Structure, name: str):
-    pts = structure.meta.get("points") if isinstance(structure.meta, dict) else None
+    pts = getattr(structure, "points", None)
     if isinstance(pts, dict) and name in pts:
         return int(pts[name])
     return None
 
 
 def default_load_point(structure: Structure) -> int:
-    """Node index of the default load point: the paper's load point on the plate (``meta["points"]["load"]``),
+    """Node index of the default load point: the paper's load point on the plate (``points["load"]``),
     else the last node (the free end of a bent rod)."""
     i = _named_point(structure, "load")
     return i if i is not None else int(np.asarray(structure.nodes).shape[0] - 1)
 
 
 def default_output_point(structure: Structure) -> int:
-    """Node index of the default output point: P1 on the plate (``meta["points"]["P1"]``), else the first node."""
+    """Node index of the default output point: P1 on the plate (``points["P1"]``), else the first node."""
     i = _named_point(structure, "P1")
     return i if i is not None else 0

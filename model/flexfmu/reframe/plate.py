@@ -165,9 +165,9 @@ def paper_plate(divisions=DEFAULT_DIVISIONS, *, corner_mass: float = CORNER_MASS
                   0.6% of the paper's Table 1, assembly + modal analysis about 5 s.
     corner_mass:  kg added to x, y and z of each corner node (paper: 1 kg); >= 0.
 
-    meta: ``corner_nodes`` (8 node indices, P1 ... P8), ``points`` (name -> node index for
-    P1 ... P8, the load point and the reference points R = P1, P = P2, Q = P3), ``load_point``
-    (m), ``divisions``, ``n_elements``, ``material``, ``element``, ``paper_frequencies_hz``.
+    points: name -> node index for P1 ... P8, the load point and the reference points R = P1, P = P2,
+    Q = P3.  meta: ``corner_nodes`` (8 node indices, P1 ... P8), ``load_point`` (m), ``divisions``,
+    ``n_elements``, ``material``, ``element``, ``paper_frequencies_hz``.
     """
     d = _check_divisions(divisions)
     corner_mass = _check_corner_mass(corner_mass)
@@ -195,10 +195,9 @@ def paper_plate(divisions=DEFAULT_DIVISIONS, *, corner_mass: float = CORNER_MASS
         "material": {"E": YOUNGS_MODULUS, "nu": POISSON, "rho": DENSITY},
         "corner_mass": float(corner_mass),
         "corner_nodes": corner_nodes,
-        "points": points,
         "load_point": LOAD_POINT.copy(),
         "load_point_offset": float(np.linalg.norm(nodes[load_node] - LOAD_POINT)),
         "paper_frequencies_hz": PAPER_FREQUENCIES_HZ.copy(),
     }
     name = f"paper_plate {d[0]}x{d[1]}x{d[2]}"
-    return Structure(nodes=nodes, dofs_per_node=3, M=M, K=K, name=name, meta=meta)
+    return Structure(nodes=nodes, dofs_per_node=3, M=M, K=K, name=name, meta=meta, points=points)

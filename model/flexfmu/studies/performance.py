@@ -94,7 +94,7 @@ def reframe_step_times(integ, n=2000):
     loads = integ.prepare_loads(PointLoad(LOAD_POINT, half_sine_pulse(FORCE, 0.01)))
     s0 = integ.initial_state(omega0=(0.5, 0.2, 0.8))
     s0 = integ.advance_steps(s0, dt, 20, loads)              # loaded, deforming, compiled
-    pts = integ.point_indices([integ.data.structure.meta["points"]["P1"]])
+    pts = integ.point_indices([integ.data.structure.points["P1"]])
 
     def single():
         s = s0
