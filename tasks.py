@@ -2,7 +2,8 @@
 """Project tasks that work on a fresh clone with nothing but Python >= 3.11.
 
     python3 tasks.py main    # set up .venv, then the main job: modal report, build the FMUs into
-                             # dist/, run both papers' scenarios through fmpy (dist/*.png)
+                             # dist/, run both papers' scenarios through fmpy (dist/*.png), export
+                             # the example bracket mesh as an FMU and run it in the wave converter
     python3 tasks.py test    # set up .venv, then run the whole test suite
 
 Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
@@ -68,7 +69,13 @@ def main() -> int:
         # The modal report, the FMUs, then both papers' scenarios through fmpy.
         for argv in (["-m", "flexfmu", "main"], ["build_scripts/build_fmus.py", "--out", "dist"],
                      ["examples/hammer_test.py", "--fmu", "dist/FFRBeam.fmu", "--plot", "dist/hammer_fft.png"],
-                     ["examples/reframe_plate.py", "--fmu", "dist/ReframeBody.fmu", "--plot", "dist/reframe_plate.png"]):
+                     ["examples/reframe_plate.py", "--fmu", "dist/ReframeBody.fmu", "--plot", "dist/reframe_plate.png"],
+                     # a user's mesh as an FMU, run in the wave-converter system (docs/export.md)
+                     ["-m", "flexfmu", "export", "examples/bracket/bracket.json", "-o", "dist/Bracket.fmu",
+                      "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top", "--f-max", "2000"],
+                     ["-m", "flexfmu", "cosim", "examples/bracket/OspSystemStructure.xml", "--t-end", "10",
+                      "--out", "dist/bracket_system.csv"],
+                     ["examples/bracket/plot_system.py", "dist/bracket_system.csv", "dist/bracket_system.png"]):
             status = run(argv)
             if status:
                 return status
