@@ -186,6 +186,7 @@ def test_clamped_body_base_acceleration_gives_the_static_deflection_and_reaction
 
 @pytest.mark.parametrize("case", ["unknown element", "no material", "interface outside", "empty clamp",
                                   "unknown clamp", "singular free body", "ansys without coordinates",
+                                  "ansys as a free body",
                                   "no size", "bad name"])
 def test_bad_models_exit_2_with_one_line(case, tmp_path, box):
     material = ["--material", f"{E},{NU},{RHO}"]
@@ -223,6 +224,12 @@ def test_bad_models_exit_2_with_one_line(case, tmp_path, box):
         full = tmp_path / "alone.full"
         shutil.copy(examples.fullfile, full)
         args, expect = [full, *size, *iface], ".cdb"
+    elif case == "ansys as a free body":
+        from ansys.mapdl.reader import examples
+        from pathlib import Path
+        cdb = Path(examples.fullfile).with_name("HexBeam.cdb")
+        # MAPDL writes no mass or stiffness for the DOFs it constrains; the interface sits on such a node
+        args, expect = [examples.fullfile, "--nodes", cdb, "--clamp", "free", *size, *iface], "constrained DOF"
     elif case == "no size":
         args, expect = [box, *material, *iface], "modes"
     else:

@@ -105,6 +105,10 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
             groups[f"{p.name} moment"] = G[:, 3:]
     outputs = {p.name: p.translation(n_dof) for p in patches}
     size = {"n_modes": n_modes, "f_max": f_max, "tolerance": tolerance, "damping_ratio": float(damping_ratio)}
+    if clamp is None and structure.meta.get("clamped_only"):
+        raise ParameterError("clamp", f"free: {structure.name or 'the model'} keeps no mass or stiffness for its "
+                             f"{len(structure.constrained_dofs)} constrained DOF(s) (as MAPDL writes them), so it "
+                             "has no free-body form", '"file" (clamped on those DOFs) or a node set')
     if clamp is None:
         kind, fixed, how = "free", np.zeros(0, dtype=np.int64), "free (no clamp)"
         sized = free_modes(checked, LoadCase(groups, outputs), **size)

@@ -163,9 +163,10 @@ def _check_spec(spec: Interface, index: int, names: set) -> tuple[str, np.ndarra
 
 
 def _neighbours(K, node: int, dpn: int) -> np.ndarray:
-    """Nodes coupled to ``node`` in K (the nodes of the elements around it), itself included."""
+    """Nodes coupled to ``node`` in K (the nodes of the elements around it), itself included (also when its
+    rows are empty: a DOF the model file constrained may carry no stiffness)."""
     rows = K[node * dpn:(node + 1) * dpn]
-    return np.unique(rows.indices // dpn)
+    return np.union1d(rows.indices // dpn, [node])
 
 
 def _patch_nodes(structure, spec: Interface, name: str, point: np.ndarray, dpn: int):
