@@ -12,9 +12,11 @@ from flexfmu.body.clamped_dynamics import ClampedDynamics
 from flexfmu.body.free import FreeDynamics
 from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit, round_down
 from flexfmu.errors import NonFiniteError, ParameterError, StepRejected
+from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.modeldata import RK4_STABILITY_LIMIT
 
 AUTO_STEP_FRACTION = 0.9           # of the RK4 stability limit, for internal_step = 0 (as ReframeBody)
+_OMEGA, _ALPHA = output_layout(0, 0).omega, output_layout(0, 0).alpha     # their places do not depend on nf
 
 
 def too_many_steps(cap: int, needed: float, step_size: float, h_ok: float, cause: str) -> Exception:
@@ -75,7 +77,7 @@ class FreeEngine:
         """(internal steps, reason) for a communication step h (s); StepRejected / ParameterError beyond the cap."""
         if not self.rk4 and self.internal_step == 0:
             out = self.dyn.outputs(self.y, self.SV, max_elastic=False)
-            w, a = float(np.linalg.norm(out[10:13])), float(np.linalg.norm(out[13:16]))
+            w, a = float(np.linalg.norm(out[_OMEGA])), float(np.linalg.norm(out[_ALPHA]))
             if not (math.isfinite(w) and math.isfinite(a)):
                 raise NonFiniteError(self.culprit() or "state", "the angular velocity or acceleration overflows "
                                      "(not finite)")
