@@ -44,9 +44,9 @@ def fmu_instance(fmus):
 #: Test tiers (pytest markers, registered in pyproject.toml); .ci/run runs them all.
 #: host: our FMUs in hosts other than fmpy; study: the studies' building blocks and independent references;
 #: fmu: anything that builds or loads an FMU; unit: the library alone.
-HOST_FILES = {"test_fmu_c_host.py", "test_fmu_ecos.py", "test_fmu_hosts.py"}
+HOST_FILES = {"test_fmu_c_host.py", "test_fmu_ecos.py", "test_fmu_hosts.py", "test_fmu_ssp.py"}
 STUDY_FILES = {"test_work_precision.py", "test_stability.py", "test_spinup_models.py", "test_spinup_reference.py",
-               "test_reframe_exudyn.py", "test_wave_sweep.py"}
+               "test_reframe_exudyn.py", "test_wave_sweep.py", "test_wave_power_matrix.py"}
 
 
 def pytest_collection_modifyitems(config, items):

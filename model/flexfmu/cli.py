@@ -8,8 +8,10 @@
     flexfmu build [--out dist]
     flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
-    flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|library]
-                    [--scheme gauss-seidel|jacobi] [--fmu-dir DIR] [--plot PNG]
+    flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|ecos|library]
+                    [--scheme gauss-seidel|jacobi] [--fmu-dir DIR] [--plot PNG] [--set INSTANCE.VARIABLE=VALUE]...
+    flexfmu wec power-matrix [SYSTEM_FILE] [--hs H1,H2,..] [--tp T1,T2,..] [--seeds N] [--t-end T]
+                    [--serial | --scheduler ADDRESS] [--out power_matrix.csv] [--plot power_matrix.png]
     flexfmu bench [performance|work-precision|stability|spinup] [--quick] [--out FILE]
     flexfmu main            the modal report of the paper's specimen (python3 tasks.py main does more)
 
@@ -289,15 +291,18 @@ def _reframe(args: argparse.Namespace) -> int:
 
 
 def _cosim(args: argparse.Namespace) -> int:
-    """Run a system of FMUs from an OspSystemStructure.xml with one of the masters."""
+    """Run a system of FMUs from an OspSystemStructure.xml or an SSP (.ssp) with one of the masters."""
     from flexfmu.cosim import masters as cosim
     from flexfmu.wec import system as wec
 
     system = cosim.load_system(args.system_file, fmu_dir=args.fmu_dir)
+    if args.set:
+        system = cosim.with_assignments(system, args.set)
     h = system.base_step if args.step is None else args.step
-    scheme = args.scheme or ("jacobi" if args.master == "libcosim" else "gauss-seidel")
-    if args.master == "libcosim" and scheme != "jacobi":
-        raise ParameterError("scheme", f"{scheme} with --master libcosim", "jacobi (libcosim's fixed-step algorithm)")
+    scheme = args.scheme or ("jacobi" if args.master in ("libcosim", "ecos") else "gauss-seidel")
+    if args.master in ("libcosim", "ecos") and scheme != "jacobi":
+        raise ParameterError("scheme", f"{scheme} with --master {args.master}",
+                             f"jacobi ({args.master}'s fixed-step algorithm)")
     if args.every < 1:
         raise ParameterError("every", f"{args.every}", "integer >= 1")
     if not (math.isfinite(h) and h > 0):
@@ -315,6 +320,8 @@ def _cosim(args: argparse.Namespace) -> int:
                       "or divergence - use a smaller --step (docs/wave_converter.md)", file=sys.stderr, flush=True)
     if args.master == "libcosim":
         result = cosim.run_libcosim(system, args.t_end, h, progress=True)
+    elif args.master == "ecos":
+        result = cosim.run_ecos(system, args.t_end, h, progress=True)
     else:
         backend = "library" if args.master == "library" else "fmu"
         result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True)
@@ -337,6 +344,44 @@ def _cosim(args: argparse.Namespace) -> int:
             raise ParameterError("plot", "the system is not the wave-energy converter", "a system with WaveExcitation, "
                                  "Platform, Hydrostatics, FFRBeam and PTO")
         print(f"wrote {wec.plot_result(result, system, args.plot)}")
+    return 0
+
+
+def _floats(text: str, name: str) -> list:
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ParameterError(name, f"{text!r} is not a comma-separated list of numbers", "e.g. 1.0,1.4,2.0") from None
+
+
+def _wec_power_matrix(args: argparse.Namespace) -> int:
+    """flexfmu wec power-matrix: flexfmu.wec.system.power_matrix, its CSV and heat map."""
+    import numpy as np
+
+    from flexfmu.wec import system as wec
+
+    if args.seeds < 1:
+        raise ParameterError("seeds", f"{args.seeds}", "integer >= 1")
+    if args.workers < 1:
+        raise ParameterError("workers", f"{args.workers}", "integer >= 1")
+    scheduler = None if args.serial else (args.scheduler or "local")
+    matrix = wec.power_matrix(args.system_file, _floats(args.hs, "hs"), _floats(args.tp, "tp"),
+                              seeds=range(1, args.seeds + 1), t_end=args.t_end, step=args.step,
+                              boundary=args.boundary, backend=args.backend, fmu_dir=args.fmu_dir,
+                              scheduler=scheduler, n_workers=args.workers,
+                              max_steepness=wec.MAX_STEEPNESS if args.max_steepness is None else args.max_steepness,
+                              progress=True)
+    n_runs = len(matrix.rows)
+    print(f"{n_runs} co-simulations ({np.isfinite(matrix.power).sum()} of {matrix.power.size} cells) in "
+          f"{matrix.wall_s:.0f} s ({'serial' if scheduler is None else 'Dask ' + scheduler})")
+    for row in matrix.rows:
+        if row.get("error"):
+            print(f"  failed: Hs {row['wave_height']:g} m, Tp {row['wave_period']:g} s, seed {row['seed']}: "
+                  f"{row['error']}")
+    print(f"wrote {matrix.write_csv(args.out)}")
+    if matrix.rows:
+        print(f"wrote {wec.write_table(matrix.rows, args.out.with_name(args.out.stem + '_runs.csv'))}")
+    print(f"wrote {matrix.plot(args.plot)}")
     return 0
 
 
@@ -433,24 +478,31 @@ def build_parser() -> argparse.ArgumentParser:
     reframe.set_defaults(func=_reframe)
 
     cosim_p = sub.add_parser(
-        "cosim", help="co-simulate a system of FMUs described by an OspSystemStructure.xml",
-        description="Co-simulate a system of FMUs (OSP system structure file) with a fixed communication step: "
-                    "our fmpy master (Gauss-Seidel or Jacobi), libcosim (Jacobi), or the flexfmu library models the "
-                    "FMUs wrap. Warns when the step is outside the system's coupling-stability limit. For the "
+        "cosim", help="co-simulate a system of FMUs described by an OspSystemStructure.xml or an SSP (.ssp)",
+        description="Co-simulate a system of FMUs (OSP system structure file, or SSP 1.0) with a fixed communication "
+                    "step: our fmpy master (Gauss-Seidel or Jacobi), libcosim or ecos (Jacobi), or the flexfmu library "
+                    "models the FMUs wrap. Warns when the step is outside the system's coupling-stability limit. "
+                    "For the "
                     "wave-energy converter (examples/wave_converter/) also prints motion, harvested power and the "
                     "energy balance.")
-    cosim_p.add_argument("system_file", metavar="SYSTEM_FILE", type=Path, help="OspSystemStructure.xml")
+    cosim_p.add_argument("system_file", metavar="SYSTEM_FILE", type=Path,
+                         help="OspSystemStructure.xml, or an SSP: .ssp archive (FMUs in resources/) or .ssd")
+    cosim_p.add_argument("--set", action="append", default=[], metavar="INSTANCE.VARIABLE=VALUE",
+                         help="change a start value (repeatable), e.g. wave.wave_height=0.1; an unknown instance "
+                              "or variable is an error that lists the allowed ones")
     cosim_p.add_argument("--t-end", type=float, required=True, metavar="T", help="end time, s")
     cosim_p.add_argument("--step", type=float, default=None, metavar="H",
                          help="communication step, s (default: the file's BaseStepSize)")
     cosim_p.add_argument("--out", type=Path, default=None, metavar="CSV",
                          help="write every output of every simulator as CSV (columns instance.variable)")
     cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point")
-    cosim_p.add_argument("--master", choices=("fmpy", "libcosim", "library"), default="fmpy",
-                         help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; library: the "
-                              "flexfmu models the FMUs wrap, without FMI")
+    cosim_p.add_argument("--master", choices=("fmpy", "libcosim", "ecos", "library"), default="fmpy",
+                         help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; ecos: the ecos "
+                              "engine (ecospy), given the system as SSP; library: the flexfmu models the FMUs wrap, "
+                              "without FMI")
     cosim_p.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default=None,
-                         help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim: jacobi)")
+                         help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim, "
+                              "ecos: jacobi)")
     cosim_p.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
                          help="take the FMUs from DIR instead of the file's sources (same file names)")
     cosim_p.add_argument("--plot", type=Path, default=None, metavar="PNG",
@@ -458,6 +510,42 @@ def build_parser() -> argparse.ArgumentParser:
     cosim_p.add_argument("--no-stability-check", action="store_true",
                          help="skip the coupling-stability check (a few seconds for the wave-energy converter)")
     cosim_p.set_defaults(func=_cosim)
+
+    wec_p = sub.add_parser("wec", help="wave-energy converter studies (examples/wave_converter/)")
+    wec_sub = wec_p.add_subparsers(dest="wec_command", required=True)
+    pm = wec_sub.add_parser(
+        "power-matrix", help="mean harvested power over significant wave height x peak period (JONSWAP)",
+        description="The power matrix of the wave-energy converter: per cell (Hs, Tp) one JONSWAP co-simulation per "
+                    "seed, mean harvested power over the second half of each run, averaged over the seeds; on a Dask "
+                    "LocalCluster (default), a running scheduler (--scheduler) or serially (--serial). Writes the "
+                    "matrix as CSV (rows Hs, columns Tp, W; empty cells not computed: steeper than --max-steepness "
+                    "or failed) and a heat map; one row per co-simulation in CSV_runs.csv.")
+    pm.add_argument("system_file", metavar="SYSTEM_FILE", type=Path, nargs="?",
+                    default=Path("examples/wave_converter/OspSystemStructure.xml"),
+                    help="OspSystemStructure.xml or .ssp (default examples/wave_converter/OspSystemStructure.xml)")
+    pm.add_argument("--hs", default="0.05,0.1,0.15,0.2", metavar="H1,H2,...",
+                    help="significant wave heights, m (default 0.05,0.1,0.15,0.2)")
+    pm.add_argument("--tp", default="1.0,1.2,1.4,1.6,2.0", metavar="T1,T2,...",
+                    help="peak periods, s (default 1.0,1.2,1.4,1.6,2.0)")
+    pm.add_argument("--seeds", type=int, default=3, metavar="N", help="random-phase seeds 1..N per cell (default 3)")
+    pm.add_argument("--t-end", type=float, default=60.0, metavar="T", help="length of each run, s (default 60)")
+    pm.add_argument("--step", type=float, default=None, metavar="H", help="communication step (default: the file's)")
+    pm.add_argument("--boundary", default="XFF", metavar="B", help="harvester clamps: XFF (default), XFX, FXF")
+    pm.add_argument("--backend", choices=("library", "fmu"), default="library",
+                    help="library (default): the models the FMUs wrap; fmu: the FMUs (--fmu-dir)")
+    pm.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR", help="take the FMUs from DIR")
+    pm.add_argument("--max-steepness", type=float, default=None, metavar="S",
+                    help="skip cells steeper than 2 pi Hs / (g Tp^2) > S (default 1/15)")
+    where = pm.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                       help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster)")
+    where.add_argument("--serial", action="store_true", help="run in this process, without Dask")
+    pm.add_argument("--workers", type=int, default=2, metavar="N", help="LocalCluster workers (default 2)")
+    pm.add_argument("--out", type=Path, default=Path("power_matrix.csv"), metavar="CSV",
+                    help="the matrix (default power_matrix.csv)")
+    pm.add_argument("--plot", type=Path, default=Path("power_matrix.png"), metavar="PNG",
+                    help="the heat map (default power_matrix.png)")
+    pm.set_defaults(func=_wec_power_matrix)
 
     bench = sub.add_parser(
         "bench", help="benchmark studies (flexfmu.studies; also benchmarks/<study>.py)",

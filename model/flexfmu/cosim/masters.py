@@ -1,7 +1,7 @@
 """Co-simulation masters for a system of FMUs described by one OSP system structure file
 (``OspSystemStructure.xml``, the format libcosim reads with ``CosimExecution.from_osp_config_file``).
 
-Three ways to run the same description, all with a fixed communication step h:
+Four ways to run the same description, all with a fixed communication step h:
 
 - ``run(system, ..., backend="fmu")``: our own master over fmpy's ``FMU2Slave``, Jacobi (every
   slave steps from t_n with the inputs of t_n, then all outputs are passed on: what libcosim's
@@ -10,6 +10,9 @@ Three ways to run the same description, all with a fixed communication step h:
 - ``run(system, ..., backend="library")``: the same loop over the flexfmu façades that the FMUs
   wrap (no FMI, and the components' internal state is at hand, e.g. for the energy audit).
 - ``run_libcosim(system, ...)``: DNV's libcosim through libcosimpy on the same file (Jacobi).
+- ``run_ecos(system, ...)``: the ecos engine (ecospy) on the system written as SSP (Jacobi).
+
+A system file is an OSP file or an SSP (``.ssp``; flexfmu.cosim.ssp).
 
 Also here: the linear coupling-stability analysis of the discrete co-simulation
 (``step_limit``), the wave-energy converter's energy audit (``energy_balance``) and the
@@ -92,6 +95,62 @@ class System:
         return replace(self, simulators=sims)
 
 
+_PYTHON_TYPES = {bool: "Boolean", int: "Integer", float: "Real", str: "String"}
+
+
+def settable_variables(spec: SimulatorSpec) -> dict:
+    """{variable: FMI type name} of the start values an instance takes: its FMU's parameters and
+    inputs (modelDescription.xml), or, when the FMU file is not there, its library model's parameters."""
+    if Path(spec.source).is_file():
+        from fmpy import read_model_description
+        md = read_model_description(str(spec.source))
+        return {v.name: ("Integer" if v.type == "Enumeration" else v.type) for v in md.modelVariables
+                if v.causality in ("parameter", "input") and v.variability != "constant"}
+    require(spec.model in LIBRARY_MODULES, "source", f"{spec.name}: FMU {str(spec.source)!r} not found",
+            "an FMU file (build them with: flexfmu build, or pass --fmu-dir)")
+    module_name, config_name, _ = LIBRARY_MODULES[spec.model]
+    config = getattr(importlib.import_module(module_name), config_name)
+    return {f.name: _PYTHON_TYPES.get(type(f.default), "Real") for f in fields(config)}
+
+
+def _typed(text: str, kind: str, where: str):
+    """A --set value as the variable's type."""
+    try:
+        if kind == "Real":
+            value = float(text)
+            require(math.isfinite(value), where, f"{text!r} is not finite", "a finite number")
+            return value
+        if kind == "Integer":
+            return int(text)
+        if kind == "Boolean":
+            low = text.strip().lower()
+            require(low in ("true", "false", "1", "0"), where, f"{text!r} is not a Boolean", "true | false | 1 | 0")
+            return low in ("true", "1")
+        return text
+    except ValueError:
+        raise ParameterError(where, f"{text!r} is not {'an' if kind == 'Integer' else 'a'} {kind}",
+                             f"{'an' if kind == 'Integer' else 'a'} {kind} value") from None
+
+
+def with_assignments(system: System, assignments) -> System:
+    """The system with start values changed by "INSTANCE.VARIABLE=VALUE" texts (``flexfmu cosim --set``),
+    each value converted to the variable's type.  An unknown instance or variable is a ParameterError
+    that lists the allowed ones."""
+    values: dict = {}
+    instances = [s.name for s in system.simulators]
+    for text in assignments:
+        key, sep, raw = str(text).partition("=")
+        inst, dot, var = key.strip().partition(".")
+        require(bool(sep) and bool(dot) and bool(inst) and bool(var), "set",
+                f"{text!r} is not INSTANCE.VARIABLE=VALUE", "e.g. wave.wave_height=0.1")
+        require(inst in instances, "set", f"{text!r}: unknown instance {inst!r}", ", ".join(instances))
+        allowed = settable_variables(system.simulator(inst))
+        require(var in allowed, "set", f"{text!r}: {inst} has no parameter or input {var!r}",
+                ", ".join(f"{inst}.{v}" for v in allowed))
+        values.setdefault(inst, {})[var] = _typed(raw.strip(), allowed[var], f"{inst}.{var}")
+    return system.with_values(values)
+
+
 def _tag(element) -> str:
     return element.tag.split("}", 1)[-1]
 
@@ -102,15 +161,22 @@ def _children(element, name):
 
 def load_system(path, fmu_dir=None) -> System:
     """Read an OspSystemStructure.xml (Simulators with InitialValues, VariableConnections,
-    BaseStepSize, StartTime).  FMU sources are relative to the file; fmu_dir overrides their folder."""
+    BaseStepSize, StartTime), or an SSP (``.ssp`` archive, ``.ssd`` file or a folder with
+    SystemStructure.ssd: flexfmu.cosim.ssp.load_ssp).  FMU sources are relative to the file; fmu_dir
+    overrides their folder."""
     path = Path(path)
-    require(path.is_file(), "SYSTEM_FILE", f"{str(path)!r} not found", "an OspSystemStructure.xml file")
+    if path.suffix.lower() in (".ssp", ".ssd") or (path.is_dir() and (path / "SystemStructure.ssd").is_file()):
+        from flexfmu.cosim.ssp import load_ssp
+        return load_ssp(path, fmu_dir=fmu_dir)
+    require(path.is_file(), "SYSTEM_FILE", f"{str(path)!r} not found",
+            "an OspSystemStructure.xml file or an SSP (.ssp)")
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as exc:
-        raise ParameterError("SYSTEM_FILE", f"{path}: not XML ({exc})", "an OspSystemStructure.xml file") from None
+        raise ParameterError("SYSTEM_FILE", f"{path}: not XML ({exc})",
+                             "an OspSystemStructure.xml file or an SSP (.ssp)") from None
     require(_tag(root) == "OspSystemStructure", "SYSTEM_FILE", f"{path}: root element is {_tag(root)!r}",
-            "an OspSystemStructure.xml file (SSP is not supported yet)")
+            "an OspSystemStructure.xml file or an SSP (.ssp)")
     base_step, start = 1e-3, 0.0
     sims, conns = [], []
     for child in root:
@@ -577,10 +643,17 @@ def step_limit(system: System, scheme: str = "gauss-seidel", h_min: float = 1e-4
     return lo
 
 
+def _is_ssp(system: System) -> bool:
+    return system.path is not None and (Path(system.path).suffix.lower() in (".ssp", ".ssd")
+                                        or Path(system.path).is_dir())
+
+
 def run_libcosim(system: System, t_end: float, step: float | None = None, progress: bool = False,
-                 label: str = "flexfmu cosim (libcosim)") -> CosimResult:
+                 label: str = "flexfmu cosim (libcosim)", description: str | None = None) -> CosimResult:
     """DNV's libcosim (libcosimpy) on the same description (its fixed-step algorithm: Jacobi).
-    The file is rewritten with absolute FMU paths and the step into a temporary folder first."""
+    The system (with any changed start values) is written into a temporary folder first, as an OSP
+    file with absolute FMU paths (``description="osp"``, libcosim's from_osp_config_file) or as an
+    SSP archive (``"ssp"``, from_ssp_file); default: the format the system was read from."""
     from fmpy import read_model_description
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
@@ -593,10 +666,17 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
     for spec in system.simulators:
         require(Path(spec.source).is_file(), "source", f"{spec.name}: FMU {str(spec.source)!r} not found",
                 "an FMU file (build them with: flexfmu build, or pass --fmu-dir)")
+    description = description or ("ssp" if _is_ssp(system) else "osp")
+    require(description in ("osp", "ssp"), "description", f"got {description!r}", "osp | ssp")
     log_output_level(CosimLogLevel.ERROR)
     with tempfile.TemporaryDirectory() as tmp:
-        osp = write_osp(system, Path(tmp) / "OspSystemStructure.xml", h)
-        execution = CosimExecution.from_osp_config_file(str(osp))
+        if description == "ssp":
+            from flexfmu.cosim.ssp import write_ssp
+            ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
+            execution = CosimExecution.from_ssp_file(str(ssp), int(round(h * 1e9)))
+        else:
+            osp = write_osp(system, Path(tmp) / "OspSystemStructure.xml", h)
+            execution = CosimExecution.from_osp_config_file(str(osp))
     observer = CosimObserver.create_last_value()
     execution.add_observer(observer)
     index, outputs = {}, {}
@@ -634,6 +714,59 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
             j += 1
     t = system.start_time + h * np.arange(1, n + 1)
     return CosimResult(t, columns, h, "jacobi", "libcosim (jacobi)")
+def _load_ecospy():
+    """ecospy's EcosSimulation; its library links libtbb.so.12, which the PyPI package tbb puts in the
+    environment's lib/ (not on the loader's path): loaded globally first when it is there."""
+    lib = Path(sys.prefix) / "lib" / "libtbb.so.12"
+    if lib.exists():
+        ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+    try:
+        from ecospy import EcosSimulation
+    except (ImportError, OSError) as exc:
+        raise ParameterError("master", f"ecos (ecospy) cannot be loaded: {exc}",
+                             "fmpy | libcosim | library, or pip install ecospy tbb") from None
+    return EcosSimulation
+
+
+def run_ecos(system: System, t_end: float, step: float | None = None, progress: bool = False,
+             label: str = "flexfmu cosim (ecos)") -> CosimResult:
+    """The ecos engine (ecospy's C library, the FMUs in this process) on the system written as an SSP
+    archive into a temporary folder (its fixed-step algorithm: Jacobi; the outputs after
+    initialisation are passed to the inputs before the first step; time accumulated, t += h).
+    Start values are the SSP's parameter set "start"."""
+    from fmpy import read_model_description
+
+    from flexfmu.cosim.ssp import PARAMETER_SET, write_ssp
+
+    h = float(system.base_step if step is None else step)
+    n = _n_steps(t_end, system.start_time, h)
+    require(system.start_time == 0.0, "StartTime", f"got {system.start_time!r}", "0 for ecos")
+    EcosSimulation = _load_ecospy()
+    order = [s.name for s in system.simulators]
+    outputs = {s.name: [v.name for v in read_model_description(str(s.source)).modelVariables
+                        if v.causality == "output"] for s in system.simulators}
+    ids = [f"{nm}::{var}" for nm in order for var in outputs[nm]]
+    rows = np.empty((n + 1, len(ids)))
+    with tempfile.TemporaryDirectory() as tmp:
+        ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
+        sim = EcosSimulation(ssp_path=str(ssp), step_size=h)
+        try:
+            sim.init(parameter_set=PARAMETER_SET)
+            get = sim.get_real
+            rows[0] = [get(i) for i in ids]
+            bar = _Progress(n, label, enabled=progress)
+            for k in range(n):
+                sim.step()
+                rows[k + 1] = [get(i) for i in ids]
+                bar.update(k + 1, system.start_time + (k + 1) * h)
+            sim.terminate()
+        finally:
+            sim.free()
+    require(bool(np.all(np.isfinite(rows))), "ecos", "non-finite outputs", "a step inside the coupling-stability limit")
+    columns = dict(zip([f"{nm}.{var}" for nm in order for var in outputs[nm]], rows.T))
+    return CosimResult(system.start_time + h * np.arange(n + 1), columns, h, "jacobi", "ecos (jacobi)")
+
+
 def stability_check(system: System, h: float, scheme: str, n_grid: int = 12) -> dict:
     """Is the linearised coupled step stable at h and at n_grid evenly spaced steps below it?
     Returns {"stable": bool, "spectral_radius": rho(h), "first_unstable": smallest unstable step

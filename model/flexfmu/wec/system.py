@@ -315,22 +315,51 @@ def run_case(system_file: str, case: Case, t_end: float, step: float | None = No
             "wall_s": _time.perf_counter() - start}
 
 
+def run_case_or_error(system_file: str, case: Case, *args) -> dict:
+    """run_case, but a co-simulation that fails on purpose (a FlexfmuError: diverged, bad parameter)
+    gives a row with NaN power and the error, so that one case does not lose a whole sweep."""
+    from flexfmu.errors import FlexfmuError
+    try:
+        return run_case(system_file, case, *args)
+    except FlexfmuError as exc:
+        return {"boundary": case.boundary, "sea_state": case.sea_state, "wave_height": case.wave_height,
+                "wave_period": case.wave_period, "seed": case.seed, "mean_power_W": math.nan, "error": str(exc)}
+
+
+class _SweepBar:
+    """A one-line progress bar of finished co-simulations on stderr."""
+
+    def __init__(self, total: int, enabled: bool):
+        self.total, self.enabled, self.start = total, enabled, _time.perf_counter()
+
+    def update(self, done: int):
+        if not self.enabled:
+            return
+        elapsed = _time.perf_counter() - self.start
+        left = f"~{elapsed * (self.total - done) / done:.0f} s left" if done else ""
+        bar = "#" * (30 * done // self.total) + "-" * (30 - 30 * done // self.total)
+        print(f"\rsweep [{bar}] {done}/{self.total} co-simulations, {elapsed:.0f} s elapsed, {left}   ",
+              end="\n" if done == self.total else "", file=sys.stderr, flush=True)
+
+
 def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: str = "gauss-seidel",
           backend: str = "library", fmu_dir=None, scheduler: str | None = None, n_workers: int = 2,
-          progress: bool = False) -> list[dict]:
+          progress: bool = False, average_from: float | None = None, keep_going: bool = False) -> list[dict]:
     """Run each case (one co-simulation per task) and gather the rows into one table (list of dicts,
     in the order of ``cases``).  scheduler None: serially in this process (Dask not needed);
     "local": a dask.distributed LocalCluster with n_workers single-threaded worker processes;
-    otherwise the address of a running Dask scheduler (e.g. "tcp://10.0.0.5:8786")."""
+    otherwise the address of a running Dask scheduler (e.g. "tcp://10.0.0.5:8786").
+    keep_going: a failing case gives a row with NaN power and its error (run_case_or_error)."""
     system_file = str(Path(system_file).resolve())
     fmu_dir = None if fmu_dir is None else str(Path(fmu_dir).resolve())
-    args = (t_end, step, scheme, backend, fmu_dir)
+    args = (t_end, step, scheme, backend, fmu_dir, average_from)
+    task = run_case_or_error if keep_going else run_case
+    bar = _SweepBar(len(cases), progress)
     if scheduler is None:
         rows = []
         for i, case in enumerate(cases):
-            rows.append(run_case(system_file, case, *args))
-            if progress:
-                print(f"sweep: {i + 1}/{len(cases)} done", file=sys.stderr, flush=True)
+            rows.append(task(system_file, case, *args))
+            bar.update(i + 1)
         return rows
     try:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -344,10 +373,10 @@ def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: s
     else:
         client = Client(scheduler)
     try:
-        futures = [client.submit(run_case, system_file, case, *args, pure=False) for case in cases]
+        futures = [client.submit(task, system_file, case, *args, pure=False) for case in cases]
         if progress:
             for i, _ in enumerate(as_completed(futures)):
-                print(f"sweep: {i + 1}/{len(cases)} done", file=sys.stderr, flush=True)
+                bar.update(i + 1)
         return client.gather(futures)
     finally:
         client.close()
@@ -360,7 +389,118 @@ def write_table(rows: list[dict], path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        names = list(dict.fromkeys(k for r in rows for k in r))    # an error row has other columns
+        w = csv.DictWriter(f, fieldnames=names, restval="")
         w.writeheader()
         w.writerows(rows)
     return path
+
+
+# ---------------------------------------------------------------- power matrix
+#: the usual limiting steepness of a sea state, 2 pi Hs / (g Tp^2) (DNV-RP-C205): steeper cells are
+#: not computed and stay empty in the matrix
+MAX_STEEPNESS = 1 / 15
+
+
+@dataclass
+class PowerMatrix:
+    """Mean harvested power (W) over irregular (JONSWAP) seas: ``power[i, j]`` for significant wave
+    height ``heights[i]`` and peak period ``periods[j]``, the mean over the seeds; NaN where not
+    computed (steeper than max_steepness, or every seed failed).  ``rows`` is one row per co-simulation."""
+
+    heights: np.ndarray
+    periods: np.ndarray
+    power: np.ndarray
+    rows: list
+    boundary: str
+    t_end: float
+    seeds: tuple
+    wall_s: float = 0.0
+
+    def write_csv(self, path) -> Path:
+        """IEC TS 62600-100 layout: rows Hs (m), columns Tp (s), mean power in W, empty where not computed."""
+        import csv
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["Hs_m \\ Tp_s"] + [repr(float(t)) for t in self.periods])
+            for hs, row in zip(self.heights, self.power):
+                w.writerow([repr(float(hs))] + ["" if not np.isfinite(p) else repr(float(p)) for p in row])
+        return path
+
+    def plot(self, path) -> Path:
+        """The matrix as a heat map in the table's layout (Hs down, Tp across; log colour scale), the
+        value of each computed cell written in it, empty cells blank."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import LogNorm
+
+        nh, nt = self.power.shape
+        fig, ax = plt.subplots(figsize=(max(5.0, 2.4 + 1.1 * nt), max(3.2, 1.8 + 0.6 * nh)))
+        data = np.ma.masked_invalid(np.where(self.power > 0, self.power, np.nan))
+        norm = LogNorm(vmin=data.min(), vmax=data.max()) if data.count() and data.min() < data.max() else None
+        im = ax.imshow(data, cmap="viridis", norm=norm, aspect="auto")
+        for i in range(nh):
+            for j in range(nt):
+                p = self.power[i, j]
+                if np.isfinite(p):
+                    light = norm is not None and norm(p) < 0.5
+                    ax.text(j, i, f"{p:.2g}", ha="center", va="center", fontsize=8,
+                            color="white" if light else "black")
+        ax.set_xticks(range(nt), [f"{t:g}" for t in self.periods])
+        ax.set_yticks(range(nh), [f"{h:g}" for h in self.heights])
+        ax.set_xlabel("peak period Tp (s)")
+        ax.set_ylabel("significant wave height Hs (m)")
+        ax.set_xticks(np.arange(nt + 1) - 0.5, minor=True)
+        ax.set_yticks(np.arange(nh + 1) - 0.5, minor=True)
+        ax.grid(which="minor", color="0.7", lw=0.5)
+        ax.tick_params(which="minor", length=0)
+        if data.count():
+            fig.colorbar(im, ax=ax, label="mean harvested power (W)")
+        ax.set_title(f"mean harvested power (W), harvester {self.boundary}\nJONSWAP, mean of {len(self.seeds)} "
+                     f"seeds, {self.t_end:g} s runs; empty: not computed", fontsize=9)
+        fig.tight_layout()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        return path
+
+
+def power_matrix(system_file, heights, periods, seeds=(1, 2, 3), t_end: float = 60.0, step: float | None = None,
+                 boundary: str = "XFF", scheme: str = "gauss-seidel", backend: str = "library", fmu_dir=None,
+                 scheduler: str | None = "local", n_workers: int = 2, average_from: float | None = None,
+                 max_steepness: float = MAX_STEEPNESS, progress: bool = False) -> PowerMatrix:
+    """Mean harvested power over a grid of significant wave height x peak period: per cell one JONSWAP
+    co-simulation per seed (the system file's WaveExcitation with sea_state jonswap), mean power from
+    ``average_from`` (default half the run) to the end, averaged over the seeds; on Dask (``sweep``:
+    scheduler "local", an address, or None for serial).  Cells steeper than ``max_steepness``
+    (2 pi Hs / (g Tp^2)) are not run.  A failing co-simulation leaves its seed out (its row keeps the
+    error); a cell whose seeds all failed stays empty."""
+    heights = np.asarray(heights, float).ravel()
+    periods = np.asarray(periods, float).ravel()
+    seeds = tuple(int(s) for s in seeds)
+    require(heights.size >= 1 and bool(np.all(np.isfinite(heights) & (heights > 0))), "hs",
+            f"got {heights.tolist()}", "one or more wave heights > 0 m")
+    require(periods.size >= 1 and bool(np.all(np.isfinite(periods) & (periods > 0))), "tp",
+            f"got {periods.tolist()}", "one or more peak periods > 0 s")
+    require(len(seeds) >= 1 and len(set(seeds)) == len(seeds) and min(seeds) >= 0, "seeds", f"got {list(seeds)}",
+            "one or more distinct seeds >= 0")
+    require(boundary in HARVESTER_POINT_S, "boundary", f"got {boundary!r}", " | ".join(HARVESTER_POINT_S))
+    require(max_steepness > 0, "max-steepness", f"got {max_steepness!r}", "> 0")
+    g = _config(load_system(system_file, fmu_dir=fmu_dir), "WaveExcitation").g
+    cells = [(i, j) for i, hs in enumerate(heights) for j, tp in enumerate(periods)
+             if 2 * math.pi * hs / (g * tp * tp) <= max_steepness * (1 + 1e-12)]
+    cases = [Case(boundary, "jonswap", float(heights[i]), float(periods[j]), s) for i, j in cells for s in seeds]
+    power = np.full((heights.size, periods.size), np.nan)
+    start = _time.perf_counter()
+    rows = sweep(system_file, cases, t_end, step, scheme, backend, fmu_dir, scheduler, n_workers, progress,
+                 average_from, keep_going=True) if cases else []
+    for k, (i, j) in enumerate(cells):
+        values = [r["mean_power_W"] for r in rows[k * len(seeds):(k + 1) * len(seeds)]]
+        values = [v for v in values if np.isfinite(v)]
+        if values:
+            power[i, j] = float(np.mean(values))
+    return PowerMatrix(heights, periods, power, rows, boundary, float(t_end), seeds, _time.perf_counter() - start)
