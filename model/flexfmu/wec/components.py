@@ -137,3 +137,71 @@ class MemorylessSimulator:
 
 def vector_info(prefix: str, unit: str, text: str, frame: str = "body") -> dict:
     return {f"{prefix}_{a}": (unit, f"{text}, {frame} {a}") for a in AXES}
+
+
+# ------------------------------------------------------------------ the hydrodynamic model switch
+#: the ``hydrodynamics`` parameter of WaveExcitation, Hydrostatics and Platform
+HYDRODYNAMICS = ("constant", "bem")
+HYDRODYNAMICS_INFO = ("", "hydrodynamic model: constant (the box's closed-form coefficients, Froude-Krylov "
+                          "excitation) or bem (Capytaine database of the box: excitation with diffraction, "
+                          "radiation memory, infinite-frequency added mass; deep water)")
+
+
+def check_hydrodynamics(cfg) -> None:
+    require(cfg.hydrodynamics in HYDRODYNAMICS, "hydrodynamics", f"got {cfg.hydrodynamics!r}",
+            " | ".join(HYDRODYNAMICS))
+
+
+def box_parameters(params):
+    """The BoxParameters part of a component's config (its other fields do not change the BEM database)."""
+    from flexfmu.wec.wave import BoxParameters
+    return BoxParameters(**{f.name: getattr(params, f.name) for f in fields(BoxParameters)})
+
+
+_DATABASES: dict = {}
+
+
+def bem_database(params, heading_deg: float | None = None):
+    """The BEM database (flexfmu.wec.bem.hydro_database) of the box ``params`` describes: default frequencies
+    and headings, plus ``heading_deg`` (taken modulo 360) when it is not one of them.  Loaded once per
+    process; computed once per machine (the disk cache, ~15 s)."""
+    from flexfmu.wec import bem
+    headings = tuple(float(h) for h in bem.DEFAULT_HEADINGS_DEG)
+    if heading_deg is not None:
+        h = float(heading_deg) % 360.0
+        if not np.any(np.isclose(headings, h, rtol=0, atol=1e-9)):
+            headings = tuple(sorted(headings + (h,)))
+    key = (box_parameters(params), headings)
+    if key not in _DATABASES:
+        _DATABASES[key] = bem.hydro_database(key[0], headings_deg=headings)
+    return _DATABASES[key]
+
+
+def bem_excitation(ds, omega, heading_deg: float, parameter: str) -> np.ndarray:
+    """X(w, beta) per unit wave amplitude (flexfmu.wec.bem eq. BEM.2), (6, n) complex (N/m, N m/m about O), at
+    the angular frequencies ``omega`` (rad/s): re and im interpolated linearly between the database's
+    frequencies, as bem.response_amplitude_operator does.  A frequency outside the database's range is a
+    ParameterError naming ``parameter``."""
+    from flexfmu.wec import bem
+    from flexfmu.wec.wave import DOF_NAMES
+    w = np.atleast_1d(np.asarray(omega, float))
+    headings = np.degrees(ds["wave_direction"].values.astype(float)) % 360.0
+    j = np.flatnonzero(np.isclose(headings, float(heading_deg) % 360.0, rtol=0, atol=1e-9))
+    require(j.size == 1, "heading", f"got {heading_deg!r}", f"one of the database's {headings.round(6).tolist()}")
+    c = bem.coefficients(ds, DOF_NAMES)
+    w0 = c.omega
+    require(bool(np.all(w >= w0[0]) and np.all(w <= w0[-1])), parameter,
+            f"wave frequencies {w.min():.4g} .. {w.max():.4g} rad/s lie outside the BEM database's",
+            f"wave frequencies within {w0[0]:.4g} .. {w0[-1]:.4g} rad/s (periods {2 * math.pi / w0[-1]:.3g} .. "
+            f"{2 * math.pi / w0[0]:.3g} s)")
+    X = c.X[:, j[0], :]
+    return np.array([np.interp(w, w0, X[:, d].real) + 1j * np.interp(w, w0, X[:, d].imag)
+                     for d in range(len(DOF_NAMES))])
+
+
+def bem_added_mass_inf(ds) -> np.ndarray:
+    """A_inf about O, 6x6 (kg, kg m, kg m^2), symmetrised: the BEM's is symmetric to its discretisation
+    error, and a mass matrix must be."""
+    from flexfmu.wec import bem
+    A = bem.coefficients(ds).A_inf
+    return 0.5 * (A + A.T)

@@ -8,16 +8,32 @@ belongs to the left-hand side (M + A) xi_ddot of Cummins' equation and is carrie
 (platform_sim), which computes it from the same box parameters: moved to the body for stability,
 as WEC-Sim does (a delayed added-mass force is unstable in co-simulation whenever A > M).
 Memoryless: the outputs follow the inputs (direct feedthrough); no convolution memory.
+
+hydrodynamics = "bem" replaces both coefficients by the box's BEM database (flexfmu.wec.bem):
+
+    F = -C_bem xi - F_mem,   F_mem = C_r x,   x_dot = A_r x + B_r xi_dot
+
+C_bem the exactly integrated hydrostatic stiffness, F_mem the radiation memory of Cummins' equation (the
+convolution of the retardation function with the velocity) as the state-space fit of
+flexfmu.wec.radiation over all six DOFs, stepped with the exact zero-order hold of the velocity input held
+over each communication step (RadiationMemory).  Its infinite-frequency part A_inf xi_ddot is the
+Platform's (hydrodynamics = "bem" there too).  The memory state is part of get_state/set_state; the
+zeta_* parameters are not used.  The memory force depends on the state only, so F still follows xi
+directly but xi_dot only through the state.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
 
+import math
+
 import numpy as np
 
-from flexfmu.errors import require
-from flexfmu.wec.components import AXES, MemorylessSimulator, check_config, check_finite_build, vector_info
+from flexfmu.errors import DivergenceError, NonFiniteError, require
+from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, MemorylessSimulator, bem_database, box_parameters,
+                                    check_config, check_finite_build, check_hydrodynamics, check_state_config,
+                                    check_step, vector_info)
 from flexfmu.wec.wave import BoxParameters, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
@@ -37,15 +53,32 @@ class HydrostaticsConfig(BoxParameters):
     zeta_roll: float = 0.05
     zeta_pitch: float = 0.10
     zeta_yaw: float = 0.10
+    hydrodynamics: str = "constant"
 
     def zeta(self) -> np.ndarray:
         return np.array([getattr(self, n) for n in ZETA_NAMES])
 
 
 def coefficients(cfg: HydrostaticsConfig) -> tuple[np.ndarray, np.ndarray]:
-    """(C, B), 6x6 each."""
+    """(C, B), 6x6 each, of hydrodynamics = constant (whatever cfg.hydrodynamics says)."""
     check_config(cfg)                      # before the cache: it hashes the config
     return _coefficients(cfg)
+
+
+def bem_model(cfg: HydrostaticsConfig):
+    """(C, radiation model) of hydrodynamics = bem: the database's hydrostatic stiffness (6x6) and the
+    radiation memory fitted over all six DOFs (flexfmu.wec.radiation.fit_radiation, its default tolerance)."""
+    check_config(cfg)
+    checked_box(cfg)                       # the same parameter checks as the constant model
+    return _bem_model(box_parameters(cfg))
+
+
+@lru_cache(maxsize=16)
+def _bem_model(params):
+    from flexfmu.wec import bem, radiation
+    from flexfmu.wec.wave import DOF_NAMES
+    ds = bem_database(params)
+    return bem.coefficients(ds).C, radiation.fit_radiation(ds, DOF_NAMES)
 
 
 @lru_cache(maxsize=16)
@@ -87,15 +120,74 @@ class HydrostaticsSimulator(MemorylessSimulator):
 
     def __init__(self, config: HydrostaticsConfig = HydrostaticsConfig()):
         super().__init__(config)
-        self.C, self.B = coefficients(config)
+        check_config(config)
+        check_hydrodynamics(config)
+        self.memory = None                 # the radiation memory (hydrodynamics = bem), for the last step size
+        if config.hydrodynamics == "constant":
+            self.C, self.B = coefficients(config)
+        else:
+            self.C, self.radiation = bem_model(config)
+            self.B = np.zeros((6, 6))
+            self.memory_state = np.zeros(self.radiation.order)
+
+    def step(self, step_size: float) -> None:
+        if self.config.hydrodynamics == "constant":
+            return super().step(step_size)
+        check_step(step_size)
+        from flexfmu.wec.radiation import RadiationMemory
+        if self.memory is None or self.memory.h != float(step_size):
+            # the exact zero-order hold depends on the step: rediscretised when the master changes it
+            self.memory = RadiationMemory(self.radiation, step_size)
+        xi_dot = np.array([self.inputs[n] for n in INPUT_NAMES[6:]])
+        with np.errstate(all="ignore"):                     # overflow: checked by value below
+            x = self.memory.Phi @ self.memory_state + self.memory.Gamma @ xi_dot
+        size = float(np.max(np.abs(x)))
+        if not math.isfinite(size):
+            raise NonFiniteError("step_size", f"{step_size!r} s makes the radiation memory state overflow at t = "
+                                              f"{self.t!r} s; allowed: a smaller communication step")
+        if size > _DIVERGENCE_LIMIT:
+            raise DivergenceError("state", f"the radiation memory diverged at t = {self.t + step_size:.6g} s",
+                                  "a communication step inside the coupling-stability limit "
+                                  "(docs/wave_converter.md)")
+        super().step(step_size)
+        self.memory_state = x
+
+    def memory_force(self) -> np.ndarray:
+        """F_mem = C_r x (the force on the body is -F_mem), (6,); zero for hydrodynamics = constant."""
+        if self.config.hydrodynamics == "constant":
+            return np.zeros(6)
+        return self.radiation.C_r @ self.memory_state
 
     def _outputs(self) -> dict[str, float]:
         v = self.inputs
         xi = np.array([v[n] for n in INPUT_NAMES[:6]])
         xi_dot = np.array([v[n] for n in INPUT_NAMES[6:]])
-        force = -self.C @ xi - self.B @ xi_dot
-        values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ self.B @ xi_dot)]
+        if self.config.hydrodynamics == "constant":
+            force = -self.C @ xi - self.B @ xi_dot
+            values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ self.B @ xi_dot)]
+        else:
+            f_mem = self.memory_force()
+            force = -self.C @ xi - f_mem
+            values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ f_mem)]
         return dict(zip(OUTPUT_NAMES, values))
+
+    def get_state(self) -> dict:
+        state = super().get_state()
+        if self.config.hydrodynamics == "bem":
+            state["memory"] = self.memory_state.tolist()
+        return state
+
+    def set_state(self, data: dict) -> None:
+        check_state_config(data, self.config)
+        if self.config.hydrodynamics == "bem":
+            x = np.array(data["memory"], float)
+            require(x.shape == self.memory_state.shape, "FMUstate", f"radiation memory of shape {x.shape}",
+                    f"a state of this instance's configuration ({self.memory_state.size} memory states)")
+            self.memory_state = x
+        super().set_state(data)
+
+
+_DIVERGENCE_LIMIT = 1e12   # memory state (N s m-ish): far beyond any linear-wave motion
 
 
 BOX_INFO: dict[str, tuple[str, str]] = {
@@ -114,13 +206,18 @@ BOX_INFO: dict[str, tuple[str, str]] = {
 VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **BOX_INFO,
     **{n: ("", f"radiation damping ratio in {n.split('_')[1]} (heave, roll, pitch: fraction of critical; "
-               "surge, sway, yaw: at the heave natural frequency), 0 .. 10") for n in ZETA_NAMES},
+               "surge, sway, yaw: at the heave natural frequency), 0 .. 10; not used with hydrodynamics = bem")
+       for n in ZETA_NAMES},
+    "hydrodynamics": HYDRODYNAMICS_INFO,
     **vector_info("pos", "m", "displacement of the waterplane centre O", "global"),
     **{f"rot_{a}": ("", f"small rotation about global {a}, rad") for a in AXES},
     **vector_info("vel", "m/s", "velocity of O", "global"),
     **vector_info("omega", "rad/s", "angular velocity", "global"),
-    **vector_info("F", "N", "hydrostatic restoring plus radiation damping force", "global"),
-    **vector_info("M", "N.m", "hydrostatic restoring plus radiation damping moment about O", "global"),
+    **vector_info("F", "N", "hydrostatic restoring plus radiation damping (bem: radiation memory) force",
+                  "global"),
+    **vector_info("M", "N.m", "hydrostatic restoring plus radiation damping (bem: radiation memory) moment about O",
+                  "global"),
     "potential_energy": ("J", "hydrostatic potential energy 1/2 xi^T C xi"),
-    "radiation_power": ("", "power radiated (dissipated) by the radiation damping, xi_dot^T B xi_dot, W"),
+    "radiation_power": ("", "power radiated (dissipated) by the radiation damping, xi_dot^T B xi_dot, W (bem: "
+                            "xi_dot^T F_mem, the memory force's power, instantaneous, of either sign)"),
 }

@@ -5,7 +5,9 @@ the minimal Cummins model (what Platform.fmu wraps; variable names are the FMU's
 
 xi = (x, y, z, rx, ry, rz): displacement and small rotation of the waterplane centre O (global axes;
 to first order the body axes).  M_rb is the rigid-body mass matrix about O, A the constant added mass
-(flexfmu.wec.wave.FloatingBox, from the same box parameters as Hydrostatics).  Wave and hydrostatic
+(flexfmu.wec.wave.FloatingBox, from the same box parameters as Hydrostatics); with hydrodynamics = "bem"
+A is the infinite-frequency added mass A_inf of the box's BEM database (flexfmu.wec.bem, 6x6 with its
+surge-pitch and sway-roll coupling), the frequency-dependent rest being Hydrostatics' radiation memory.  Wave and hydrostatic
 loads act about O; the payload (a harvester's clamp reactions) and PTO (its stator) loads act
 about the mount point r_m and are moved to O here.  The mount point's motion is an output, for a
 structure on a moving base (FFRBeam's base_a/base_w/base_dw):
@@ -25,8 +27,9 @@ import numpy as np
 from flexfmu.errors import DivergenceError, NonFiniteError
 from flexfmu.wec.hydrostatics import BOX_INFO, BOX_NAMES, checked_box
 from flexfmu.core.checks import blame_inputs
-from flexfmu.wec.components import (AXES, check_config, check_finite_build, check_inputs, check_state_config, checked_outputs,
-                              check_step, vector_info)
+from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, bem_added_mass_inf, bem_database, box_parameters,
+                                    check_config, check_finite_build, check_hydrodynamics, check_inputs,
+                                    check_state_config, checked_outputs, check_step, vector_info)
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.wec.wave import BoxParameters
 
@@ -47,6 +50,7 @@ class PlatformConfig(BoxParameters):
     mount_x: float = 0.0
     mount_y: float = 0.0
     mount_z: float = 0.15
+    hydrodynamics: str = "constant"
 
     @property
     def mount(self) -> np.ndarray:
@@ -56,6 +60,7 @@ class PlatformConfig(BoxParameters):
 def mass_matrix(cfg: PlatformConfig) -> np.ndarray:
     """M_rb + A about O (6x6)."""
     check_config(cfg)                      # before the cache: it hashes the config
+    check_hydrodynamics(cfg)
     return _mass_matrix(cfg)
 
 
@@ -64,7 +69,9 @@ def _mass_matrix(cfg: PlatformConfig) -> np.ndarray:
     box = checked_box(cfg)
     try:
         with np.errstate(all="ignore"):
-            M = box.rigid_mass_matrix() + box.added_mass()
+            A = box.added_mass() if cfg.hydrodynamics == "constant" else bem_added_mass_inf(bem_database(
+                box_parameters(cfg)))
+            M = box.rigid_mass_matrix() + A
             M_inv = np.linalg.inv(M)
     except (OverflowError, ZeroDivisionError, ValueError, np.linalg.LinAlgError):
         M = M_inv = np.array([np.nan])
@@ -184,6 +191,7 @@ _GROUP_TEXT = {"wave": ("wave excitation", "about O", "global"),
 VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **BOX_INFO,
     **{f"mount_{a}": ("m", f"payload mount point from the waterplane centre O, {a}") for a in AXES},
+    "hydrodynamics": HYDRODYNAMICS_INFO,
     **{k: v for g, (text, about, frame) in _GROUP_TEXT.items()
        for k, v in {**vector_info(f"{g}_F", "N", f"{text} force", frame),
                     **vector_info(f"{g}_M", "N.m", f"{text} moment {about}", frame)}.items()},
@@ -195,7 +203,7 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **vector_info("alpha", "rad/s2", "angular acceleration (for the inputs held in the last step)", "global"),
     **vector_info("mount_a", "m/s2", "acceleration of the mount point", "body"),
     **vector_info("mount_v", "m/s", "velocity of the mount point", "body"),
-    "kinetic_energy": ("J", "kinetic energy including the added mass, 1/2 xi_dot^T (M_rb + A) xi_dot"),
+    "kinetic_energy": ("J", "kinetic energy including the added mass, 1/2 xi_dot^T (M_rb + A) xi_dot (bem: A_inf)"),
     **{f"work_{g}": ("J", f"work done on the platform by the {_GROUP_TEXT[g][0]} inputs since t = 0 (exact for "
                           "inputs held over each step)") for g in GROUPS},
 }

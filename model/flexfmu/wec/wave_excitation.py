@@ -1,5 +1,12 @@
-"""WaveExcitation: the Froude-Krylov force and moment of a regular Airy wave or a JONSWAP sea on a
+"""WaveExcitation: the wave excitation force and moment of a regular Airy wave or a JONSWAP sea on a
 floating box (what WaveExcitation.fmu wraps; the variable names are the FMU's).
+
+hydrodynamics = "constant": the Froude-Krylov force (flexfmu.wec.wave, any depth).  hydrodynamics = "bem":
+the BEM excitation X(w, beta) of the box's database (flexfmu.wec.bem: Froude-Krylov + diffraction, deep
+water), F(t) = Re(sum_j X(w_j, beta) a_j e^{i (phi_j - w_j t)}): the same components, amplitudes and phases
+as the elevation eta = sum_j a_j cos(phi_j - w_j t) at O, whose complex amplitude a_j e^{i phi_j} is the
+database's wave (Re(. e^{-i w t}), crest at O at t = 0 for phi = 0), so force and eta are in phase as the
+database says.
 
 No inputs: the load is a function of time, evaluated at each communication point.  The start is
 ramped (``ramp_time``) so that the load and its rate start from zero.  See flexfmu.wec.wave.
@@ -13,8 +20,10 @@ from functools import lru_cache
 import numpy as np
 
 from flexfmu.errors import require
-from flexfmu.wec.components import MemorylessSimulator, check_config, check_finite_build, vector_info
-from flexfmu.wec.wave import RHO_SEA, G, FloatingBox, froude_krylov_transfer, jonswap_sea, ramp, regular_wave
+from flexfmu.wec.components import (HYDRODYNAMICS_INFO, MemorylessSimulator, bem_database, bem_excitation,
+                                    check_config, check_finite_build, check_hydrodynamics, vector_info)
+from flexfmu.wec.wave import (RHO_SEA, G, BoxParameters, FloatingBox, froude_krylov_transfer, jonswap_sea, ramp,
+                              regular_wave)
 
 SEA_STATES = ("regular", "jonswap")
 INPUT_NAMES: tuple = ()
@@ -39,6 +48,7 @@ class WaveExcitationConfig:
     draft: float = 0.25
     rho: float = RHO_SEA
     g: float = G
+    hydrodynamics: str = "constant"
 
 
 def _check(cfg: WaveExcitationConfig) -> None:
@@ -46,6 +56,7 @@ def _check(cfg: WaveExcitationConfig) -> None:
     whatever sea_state says)."""
     check_config(cfg)
     require(cfg.sea_state in SEA_STATES, "sea_state", f"got {cfg.sea_state!r}", " | ".join(SEA_STATES))
+    check_hydrodynamics(cfg)
     require(cfg.ramp_time >= 0, "ramp_time", f"got {cfg.ramp_time!r}", ">= 0 s")
     for name in ("length", "beam", "draft", "rho", "g"):
         require(getattr(cfg, name) > 0, name, f"got {getattr(cfg, name)!r}", "> 0")
@@ -57,6 +68,9 @@ def _check(cfg: WaveExcitationConfig) -> None:
     # a box deeper than the water is aground: the pressure integral would reach below the sea floor
     require(cfg.depth <= 0 or cfg.depth > cfg.draft, "depth", f"{cfg.depth!r} m is not deeper than the draft "
             f"{cfg.draft!r} m", f"<= 0 (deep water) or > draft = {cfg.draft!r} m")
+    # the BEM database is solved for infinite depth
+    require(cfg.hydrodynamics != "bem" or cfg.depth <= 0, "depth", f"got {cfg.depth!r} m with hydrodynamics = bem",
+            "<= 0 (deep water) with hydrodynamics = bem")
 
 
 @lru_cache(maxsize=16)
@@ -71,9 +85,16 @@ def _build(cfg: WaveExcitationConfig):
             else:
                 waves = jonswap_sea(cfg.wave_height, cfg.wave_period, cfg.gamma, cfg.n_components, cfg.seed, heading,
                                     cfg.depth, cfg.g)
-            X = froude_krylov_transfer(box, waves) * waves.amplitude    # per component, (6, n)
+            if cfg.hydrodynamics == "constant":
+                X = froude_krylov_transfer(box, waves) * waves.amplitude    # per component, (6, n)
     except (OverflowError, ZeroDivisionError):                        # Python float arithmetic
         check_finite_build(cfg, names, np.array([np.nan]))
+    if cfg.hydrodynamics == "bem":
+        # the excitation does not depend on the mass distribution: BoxParameters' defaults stand in for it
+        params = BoxParameters(length=cfg.length, beam=cfg.beam, draft=cfg.draft, rho=cfg.rho, g=cfg.g)
+        check_finite_build(cfg, names, waves.omega, waves.k, waves.amplitude)
+        ds = bem_database(params, cfg.heading)
+        X = bem_excitation(ds, waves.omega, cfg.heading, "wave_period") * waves.amplitude
     check_finite_build(cfg, names, waves.omega, waves.k, waves.amplitude, X)
     return waves, X
 
@@ -115,7 +136,9 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "draft": ("m", "box draft, > 0"),
     "rho": ("", "water density, kg/m3, > 0"),
     "g": ("m/s2", "gravity, > 0"),
-    **vector_info("F", "N", "Froude-Krylov force on the box", "global"),
-    **vector_info("M", "N.m", "Froude-Krylov moment about the waterplane centre", "global"),
+    "hydrodynamics": HYDRODYNAMICS_INFO,
+    **vector_info("F", "N", "wave excitation force on the box (Froude-Krylov; bem: with diffraction)", "global"),
+    **vector_info("M", "N.m", "wave excitation moment about the waterplane centre (Froude-Krylov; bem: with "
+                              "diffraction)", "global"),
     "eta": ("m", "undisturbed surface elevation at the waterplane centre"),
 }
