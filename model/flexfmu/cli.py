@@ -1,3 +1,5 @@
+# Over 500 lines on purpose: every sub-command's parser and its short handler in one place, so `flexfmu --help`
+# and the handlers read together; the work itself is in the library functions each handler calls.
 """Command-line interface: a thin shell over library functions.
 
     flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json] [--plot PNG]

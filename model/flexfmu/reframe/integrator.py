@@ -1,3 +1,5 @@
+# Over 500 lines on purpose: the integrator's public surface (set-up, stepping, outputs, runs) with the paper's
+# equations in its docstring; schemes, kernels, loads and results live in their own modules beside it.
 """Reframe flexible-body integrator (paper Section 3, Eqs. 23-40): large rigid motion plus vibration
 from a conventional linear structural model (M, K, modal damping) by single RK4 steps in frames that
 follow the rigid-body motion extracted from the rigid-body modes.

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# Over 500 lines on purpose: one report of many independent measurements, each a short function.
 """Performance figures: figure, ours, peer or limit, ratio; writes docs/performance.md.
 
     flexfmu bench [performance] [--quick] [--out REPORT.md | -]

@@ -1,3 +1,4 @@
+# Over 500 lines on purpose: the spin-up models (shared by tests and the bench) and the study that compares them.
 """Spin-up of a cantilever on a hub (Kane, Ryan & Banerjee 1987): where linear floating-frame models fail, and
 how geometric (centrifugal) stiffening repairs them.
 

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# Over 500 lines on purpose: four independent studies, each a table and a chart, sharing their set-ups.
 """Stability where methods fail: four studies, each a table on stdout and a chart.
 
     flexfmu bench stability [--quick] [--out REPORT.md]

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# Over 500 lines on purpose: one study over four problems (their references, sweeps, tables and charts).
 """Work-precision study: error against a converged reference versus CPU time, over the
 time step, the number of modes and the mesh, for every method; PNG charts + docs/work_precision.md.
 
