@@ -1,3 +1,5 @@
+# Over 500 lines on purpose: the system description, the three masters (fmpy, libcosim, ecos) and the
+# coupling-stability analysis share one System object and its connection handling.
 """Co-simulation masters for a system of FMUs described by one OSP system structure file
 (``OspSystemStructure.xml``, the format libcosim reads with ``CosimExecution.from_osp_config_file``).
 
@@ -514,8 +516,11 @@ class Master:
                     pass
 
     # ---- library backend: the whole co-simulation state as one vector (for the stability analysis)
+    # Hydrostatics' "memory" (the radiation memory state of hydrodynamics = bem) is dynamic too: leaving
+    # it out would freeze the memory in the linearised step and give the stability of another system.
+    # A key absent from a component's state (memory with hydrodynamics = constant) is skipped.
     _DYNAMIC = {"FFRBeam": ("eta", "eta_dot"), "Platform": ("xi", "xi_dot"), "WaveExcitation": (),
-                "Hydrostatics": (), "PTO": ()}
+                "Hydrostatics": ("memory",), "PTO": ()}
 
     def state_vector(self) -> np.ndarray:
         parts = []
@@ -525,7 +530,7 @@ class Master:
             require(model in self._DYNAMIC, "simulator", f"{name}: {model} has no linear state map",
                     ", ".join(self._DYNAMIC))
             st = sl.sim.get_state()
-            parts += [np.asarray(st[k], float) for k in self._DYNAMIC[model]]
+            parts += [np.asarray(st[k], float) for k in self._DYNAMIC[model] if k in st]
             parts.append(np.array([sl.values[n] for n in sl.input_names + sl.output_names], float))
         return np.concatenate(parts)
 
@@ -536,7 +541,7 @@ class Master:
             sl = self.slaves[name]
             model = self.system.simulator(name).model
             st = dict(snapshot[name])
-            for k in self._DYNAMIC[model]:
+            for k in (k for k in self._DYNAMIC[model] if k in st):
                 n = len(st[k])
                 st[k] = x[j:j + n].tolist()
                 j += n
