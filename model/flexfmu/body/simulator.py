@@ -65,6 +65,21 @@ class FlexBodyConfig:
     omega0_3: float = 0.0
 
 
+@dataclass(frozen=True)
+class ClampedBodyConfig:
+    """The parameters of a clamped body's FMU: those of FlexBodyConfig that act on it."""
+
+    damping_ratio: float = -1.0         # -1: the body's own (FlexBody.damping_ratio)
+    internal_step: float = 0.0
+    max_internal_steps: int = DEFAULT_MAX_INTERNAL_STEPS
+
+
+def config_class(body):
+    """The parameters of ``body``'s FMU: FlexBodyConfig for a free body, ClampedBodyConfig for a clamped one
+    (initial motion, scheme and its tolerance do not apply to a body that moves with its base)."""
+    return FlexBodyConfig if body.kind == "free" else ClampedBodyConfig
+
+
 def _interface_inputs(body) -> tuple:
     out = []
     for i in body.interfaces:
@@ -105,19 +120,19 @@ def variable_info(body) -> dict[str, tuple[str, str]]:
     info = {
         "damping_ratio": ("", f"modal damping ratio of every elastic coordinate, 0 <= zeta < 1; -1 = the body's "
                               f"({body.damping_ratio:g})"),
-        "scheme": ("", "free body: exponential (exact in the modes' linear part, no stability limit) | consistent "
-                       "(RK4); a clamped body steps exactly whatever the scheme"),
-        "tolerance": ("", "free body, scheme exponential, internal_step = 0: rotation per internal step <= "
+        "scheme": ("", "exponential (exact in the modes' linear part, no stability limit) | consistent (RK4)"),
+        "tolerance": ("", "scheme exponential, internal_step = 0: rotation per internal step <= "
                           "0.5 tolerance^(1/4) rad; 1e-8 <= tolerance < 1"),
         "internal_step": ("s", "longest internal step; 0 = automatic (free: 90% of the RK4 stability limit, or by "
                                "accuracy for scheme exponential; clamped: one exact step per communication step)"),
         "max_internal_steps": ("", "most internal steps per communication step, 1 .. 1e8, counted before stepping: "
                                    "a longer communication step is rejected (fmi2Discard) while a 1e-05 s step "
                                    "would fit"),
-        **_axes("v0", "m/s", "free body: initial velocity of the centre of mass, global (0 for a clamped body)"),
-        **{f"omega0_{k}": ("rad/s", f"free body: initial angular velocity, body frame, {k} (0 for a clamped body)")
-           for k in (1, 2, 3)},
+        **_axes("v0", "m/s", "initial velocity of the centre of mass, global"),
+        **{f"omega0_{k}": ("rad/s", f"initial angular velocity, body frame, {k}") for k in (1, 2, 3)},
     }
+    if not free:                        # only the parameters of ClampedBodyConfig
+        info = {name: info[name] for name in ("damping_ratio", "internal_step", "max_internal_steps")}
     for i in body.interfaces:
         info.update(_axes(f"{i.name}.F", "N", f"force at interface {i.name}, {frame}"))
         if i.moments:
@@ -149,7 +164,7 @@ def variable_info(body) -> dict[str, tuple[str, str]]:
     return info
 
 
-def _check_config(c: FlexBodyConfig, body) -> float:
+def _check_config(c, body) -> float:
     """Types and ranges of the parameters; returns the damping ratio used."""
     zeta = require_real(c.damping_ratio, "damping_ratio", "-1 (the body's) or 0 <= damping_ratio < 1", -1.0, 1.0,
                         hi_open=True)
@@ -157,13 +172,15 @@ def _check_config(c: FlexBodyConfig, body) -> float:
         if zeta != -1.0:
             raise ParameterError("damping_ratio", f"got {c.damping_ratio!r}", "-1 (the body's) or 0 <= zeta < 1")
         zeta = body.damping_ratio
+    require_real(c.internal_step, "internal_step", "0 (automatic) or a step > 0 s", 0.0)
+    check_max_internal_steps(c.max_internal_steps)
+    if not isinstance(c, FlexBodyConfig):
+        return zeta
     require_str(c.scheme, "scheme", " | ".join(SCHEMES))
     if c.scheme not in SCHEMES:
         raise ParameterError("scheme", f"got {shown(c.scheme)}", " | ".join(SCHEMES))
     lo, hi = TOLERANCE_RANGE
     require_real(c.tolerance, "tolerance", f"{lo:g} <= tolerance < {hi:g}", lo, hi, hi_open=True)
-    require_real(c.internal_step, "internal_step", "0 (automatic) or a step > 0 s", 0.0)
-    check_max_internal_steps(c.max_internal_steps)
     for name in _INITIAL:
         v = require_real(getattr(c, name), name, "a finite number")
         if body.kind == "clamped" and v != 0.0:
@@ -175,7 +192,9 @@ class FlexBodySimulator:
     """State and step of one body (module docstring); ``messages``: what the model holds and chose, logged once,
     and the internal-step decisions when they change."""
 
-    def __init__(self, body, config: FlexBodyConfig = FlexBodyConfig()):
+    def __init__(self, body, config=None):
+        if config is None:
+            config = config_class(body)()
         self.body, self.config = body, config
         zeta = _check_config(config, body)
         self.input_names = input_names(body)

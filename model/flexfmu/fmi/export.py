@@ -59,7 +59,7 @@ class ExportedSpec:
 
     @property
     def config_class(self):
-        return self._simulator_module.FlexBodyConfig
+        return self._simulator_module.config_class(self.body)
 
     @property
     def input_names(self) -> tuple:
