@@ -26,12 +26,14 @@ NonFiniteError naming the input; a failed step keeps the state of its start.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from flexfmu.body.engines import ClampedEngine, FreeEngine
 from flexfmu.body.free import SCHEMES
+from flexfmu.core.rotation import rotation_matrix
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, check_max_internal_steps, finite_input, require_real,
                                  require_str, shown)
 from flexfmu.errors import NonFiniteError, ParameterError
@@ -43,6 +45,10 @@ _BODY_FREE = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES) 
               + tuple(f"omega_{i}" for i in (1, 2, 3)) + tuple(f"alpha_{i}" for i in (1, 2, 3))
               + tuple(f"com_pos_{a}" for a in AXES) + tuple(f"com_vel_{a}" for a in AXES)
               + ("max_elastic_displacement",))
+#: the body frame's rotation in global components (what a seakeeping or a clamped component downstream reads):
+#: rotation vector, angular velocity and acceleration; computed from q and omega_k, alpha_k (body)
+_FRAME_GLOBAL = (tuple(f"rot_{a}" for a in AXES) + tuple(f"omega_{a}" for a in AXES)
+                 + tuple(f"alpha_{a}" for a in AXES))
 _BODY_CLAMPED = tuple(f"reaction_F_{a}" for a in AXES) + tuple(f"reaction_M_{a}" for a in AXES)
 _BASE = tuple(f"base_a_{a}" for a in AXES) + tuple(f"base_w_{a}" for a in AXES) + tuple(f"base_dw_{a}" for a in AXES)
 _INITIAL = ("v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3")
@@ -101,7 +107,7 @@ def _frequency_names(body) -> tuple:
 def output_names(body) -> tuple[str, ...]:
     """The body's outputs in the order of output_vector (module docstring)."""
     per = tuple(f"{i.name}.{q}_{a}" for i in body.interfaces for q in ("pos", "vel", "acc") for a in AXES)
-    return per + (_BODY_FREE if body.kind == "free" else _BODY_CLAMPED) + _frequency_names(body)
+    return per + (_BODY_FREE + _FRAME_GLOBAL if body.kind == "free" else _BODY_CLAMPED) + _frequency_names(body)
 
 
 def deferred_outputs(body) -> tuple[str, ...]:
@@ -152,6 +158,10 @@ def variable_info(body) -> dict[str, tuple[str, str]]:
         info.update(_axes("com_pos", "m", "centre of mass (of the deformed body too), global"))
         info.update(_axes("com_vel", "m/s", "velocity of the centre of mass, global"))
         info["max_elastic_displacement"] = ("m", "largest elastic nodal displacement, body frame norm")
+        info.update({f"rot_{a}": ("", f"rotation vector of the body frame (body -> global), global {a}, rad")
+                     for a in AXES})
+        info.update(_axes("omega", "rad/s", "angular velocity of the body frame, global"))
+        info.update(_axes("alpha", "rad/s2", "angular acceleration of the body frame, global"))
     else:
         info.update(_axes("base_a", "m/s2", "acceleration of the base (body frame origin), body frame"))
         info.update(_axes("base_w", "rad/s", "angular velocity of the base, body frame"))
@@ -188,6 +198,23 @@ def _check_config(c, body) -> float:
     return zeta
 
 
+def _frame_global(q_omega_alpha: np.ndarray) -> np.ndarray:
+    """[rotation vector, omega, alpha] in global components from [q (scalar first), omega, alpha (body)]:
+    omega_g = R omega, and alpha_g = d(R omega)/dt = R alpha since R (omega x omega) = 0."""
+    q = q_omega_alpha[:4]
+    n = float(np.linalg.norm(q))
+    if not n > 0.0:
+        return np.full(9, np.nan)
+    w, v = q[0] / n, q[1:] / n
+    if w < 0.0:                                    # the same rotation, angle in [0, pi]
+        w, v = -w, -v
+    s = float(np.linalg.norm(v))
+    angle = 2.0 * math.atan2(s, w)
+    rot = v * (angle / s) if s > 1e-12 else 2.0 * v
+    R = rotation_matrix(rot).T                    # body -> global
+    return np.concatenate([rot, R @ q_omega_alpha[4:7], R @ q_omega_alpha[7:10]])
+
+
 class FlexBodySimulator:
     """State and step of one body (module docstring); ``messages``: what the model holds and chose, logged once,
     and the internal-step decisions when they change."""
@@ -209,6 +236,7 @@ class FlexBodySimulator:
             per = [L.points.start + 18 * k + j for k in range(len(body.interfaces)) for j in range(9)]
             self._columns = np.r_[per, L.frame_origin, L.frame_origin_velocity, L.quaternion, L.omega, L.alpha,
                                   L.com_position, L.com_velocity, L.max_elastic_displacement]
+            self._rotation = np.r_[L.quaternion, L.omega, L.alpha]
         self._last_split = None
         self.messages = [f"model: {body.summary()}", *body.messages,
                          f"damping ratio {zeta:g}" + (" (the body's)" if config.damping_ratio == -1.0 else "")]
@@ -276,7 +304,8 @@ class FlexBodySimulator:
         """All outputs in output_names order (max_elastic_displacement = -1 when include_deferred is False)."""
         with np.errstate(all="ignore"):
             raw = self.engine.outputs(include_deferred)
-            y = np.concatenate([raw[self._columns] if self.body.kind == "free" else raw, self._f])
+            y = np.concatenate([raw[self._columns], _frame_global(raw[self._rotation]), self._f]
+                               if self.body.kind == "free" else [raw, self._f])
         if not np.all(np.isfinite(y)):
             bad = [self.output_names[i] for i in np.flatnonzero(~np.isfinite(y))]
             raise self._overflow(", ".join(bad[:4]))
