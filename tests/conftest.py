@@ -46,7 +46,7 @@ def fmu_instance(fmus):
 #: fmu: anything that builds or loads an FMU; unit: the library alone.
 HOST_FILES = {"test_fmu_c_host.py", "test_fmu_ecos.py", "test_fmu_hosts.py", "test_fmu_ssp.py"}
 STUDY_FILES = {"test_work_precision.py", "test_stability.py", "test_spinup_models.py", "test_spinup_reference.py",
-               "test_reframe_exudyn.py", "test_wave_sweep.py", "test_wave_power_matrix.py"}
+               "test_reframe_exudyn.py", "test_wave_sweep.py", "test_wave_power_matrix.py", "test_wave_barge.py"}
 
 
 def pytest_collection_modifyitems(config, items):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import scipy.sparse as sp
 
 from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
 from flexfmu.body.free import free_invariants
@@ -78,7 +79,7 @@ def _provenance(structure: Structure, reduction: dict) -> dict:
 
 
 def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_max=None, tolerance=None,
-               damping_ratio: float = 0.02, name: str | None = None) -> FlexBody:
+               damping_ratio: float = 0.02, name: str | None = None, added_mass=None) -> FlexBody:
     """The reduced body of ``structure`` with ``interfaces`` (Interface or dicts, flexfmu.body.interfaces).
 
     clamp:          None: a free body (the model's constraints ignored); "file": clamped on the model file's
@@ -87,6 +88,11 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                     until the interfaces' estimated truncation error is within tolerance, and the static
                     correction (flexfmu.sizing.interfaces).
     damping_ratio:  the body's default modal damping ratio, 0 <= zeta < 1 (the FMU parameter may override it).
+    added_mass:     {interface name: (6, 6) mass matrix about its point (kg, kg m, kg m^2; [translation;
+                    rotation], body axes)}: a rigid mass carried by the interface's patch, M += D^T A D with D the
+                    patch's rigid fit (Eq. (I3)), so its rigid motion carries exactly A (e.g. a hull's
+                    infinite-frequency added mass, flexfmu.wec.barge).  A free body's must be a point mass at the
+                    point (translational block m I, no coupling block): the reframe kernels carry one mass.
     """
     if not isinstance(structure, Structure):
         raise ParameterError("structure", f"{type(structure).__name__}", "a flexfmu Structure")
@@ -96,6 +102,8 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
     checked = dataclasses.replace(checked, node_sets=structure.node_sets or {},
                                   constrained_dofs=structure.constrained_dofs, provenance=structure.provenance)
     patches = resolve_interfaces(checked, interfaces)
+    if added_mass:
+        checked = _with_added_mass(checked, patches, added_mass, free=clamp is None)
     n_dof = checked.n_dof
     groups = {}
     for p in patches:
@@ -148,6 +156,37 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                     center_of_mass=np.asarray(com, float), inertia=np.asarray(inertia, float),
                     damping_ratio=float(damping_ratio), arrays=arrays, provenance=_provenance(structure, reduction),
                     messages=tuple(sized.messages), clamped_dofs=fixed)
+
+
+def _with_added_mass(structure: Structure, patches, added_mass: dict, free: bool) -> Structure:
+    """``structure`` with M += D^T A D per interface (build_body's added_mass)."""
+    by_name = {p.name: p for p in patches}
+    extra = sp.csr_matrix(structure.M.shape)
+    for name, A in added_mass.items():
+        where = f"added_mass[{name!r}]"
+        if name not in by_name:
+            raise ParameterError(where, "no such interface", ", ".join(by_name) or "an interface name")
+        A = np.asarray(A, dtype=float)
+        if A.shape != (6, 6) or not np.all(np.isfinite(A)) or not np.allclose(A, A.T, rtol=1e-12, atol=0.0):
+            raise ParameterError(where, f"shape {A.shape}, finite and symmetric: "
+                                 f"{A.shape == (6, 6) and bool(np.all(np.isfinite(A)))}", "a finite symmetric 6x6")
+        if np.linalg.eigvalsh(A).min() < -1e-12 * max(1.0, float(np.abs(A).max())):
+            raise ParameterError(where, "not positive semi-definite", "a mass matrix (kinetic energy >= 0)")
+        if free:
+            m = A[0, 0]
+            if not (np.allclose(A[:3, :3], m * np.eye(3), rtol=1e-12, atol=0.0) and not np.any(A[:3, 3:])):
+                raise ParameterError(where, "a free body's added mass must be a point mass at the interface point",
+                                     "translational block m I and a zero coupling block (the reframe kernels "
+                                     "carry one mass); apply the rest as a force")
+        p = by_name[name]
+        D = p.D[:6] if p.moments else p.D[:3]
+        block = D.T @ (A if p.moments else A[:3, :3]) @ D
+        if not p.moments and np.any(A[3:, 3:]):
+            raise ParameterError(where, f"interface {name} carries no moment, so its patch fits no rotation",
+                                 "a rotational block of zero, or a patch that carries moments")
+        rows, cols = np.meshgrid(p.dofs, p.dofs, indexing="ij")
+        extra = extra + sp.csr_matrix((block.ravel(), (rows.ravel(), cols.ravel())), shape=structure.M.shape)
+    return dataclasses.replace(structure, M=(structure.M + extra).tocsr())
 
 
 def _check_held(structure, fixed: np.ndarray, how: str) -> None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import csv
 import ctypes
 import importlib
+import os
 import math
 import sys
 import tempfile
@@ -217,8 +218,10 @@ def load_system(path, fmu_dir=None) -> System:
     return system
 
 
-def write_osp(system: System, path, step: float | None = None) -> Path:
-    """Write the system as an OspSystemStructure.xml with absolute FMU paths (for libcosim)."""
+def write_osp(system: System, path, step: float | None = None, relative: bool = False) -> Path:
+    """Write the system as an OspSystemStructure.xml with absolute FMU paths (for libcosim), or paths relative
+    to the file's folder (a file to commit beside its FMUs' build folder)."""
+    path = Path(path)
     ET.register_namespace("", OSP_NS)
     q = lambda t: f"{{{OSP_NS}}}{t}"   # noqa: E731
     root = ET.Element(q("OspSystemStructure"), version="0.1")
@@ -227,7 +230,10 @@ def write_osp(system: System, path, step: float | None = None) -> Path:
     ET.SubElement(root, q("Algorithm")).text = "fixedStep"
     sims = ET.SubElement(root, q("Simulators"))
     for s in system.simulators:
-        el = ET.SubElement(sims, q("Simulator"), name=s.name, source=str(Path(s.source).resolve()))
+        source = Path(s.source).resolve()
+        if relative:
+            source = Path(os.path.relpath(source, path.resolve().parent))
+        el = ET.SubElement(sims, q("Simulator"), name=s.name, source=source.as_posix())
         if s.initial_values:
             ivs = ET.SubElement(el, q("InitialValues"))
             for name, value in s.initial_values.items():
@@ -243,7 +249,6 @@ def write_osp(system: System, path, step: float | None = None) -> Path:
         ET.SubElement(c, q("Variable"), simulator=sa, name=va)
         ET.SubElement(c, q("Variable"), simulator=sb, name=vb)
     ET.indent(root, "    ")
-    path = Path(path)
     path.write_bytes(b'<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="utf-8"))
     return path
 
@@ -327,7 +332,7 @@ class FmuSlave:
         callbacks.freeMemory = ctypes.cast(None, type(callbacks.freeMemory))
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=FmuSlave._extracted[key],
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=spec.name)
-        self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
+        self._call("fmi2Instantiate", self.fmu.instantiate, callbacks=callbacks, loggingOn=True)
         self._spec = spec
         self._vr_cache: dict = {}
 

@@ -31,13 +31,20 @@ import math
 import numpy as np
 
 from flexfmu.errors import DivergenceError, NonFiniteError, require
-from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, MemorylessSimulator, bem_database, box_parameters,
+from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, MemorylessSimulator, bem_added_mass_inf, bem_database,
+                                    box_parameters,
                                     check_config, check_finite_build, check_hydrodynamics, check_state_config,
                                     check_step, vector_info)
 from flexfmu.wec.wave import BoxParameters, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
-               + tuple(f"vel_{a}" for a in AXES) + tuple(f"omega_{a}" for a in AXES))
+               + tuple(f"vel_{a}" for a in AXES) + tuple(f"omega_{a}" for a in AXES)
+               + tuple(f"acc_{a}" for a in AXES) + tuple(f"alpha_{a}" for a in AXES))
+_XI, _XI_DOT, _XI_DDOT = slice(0, 6), slice(6, 12), slice(12, 18)
+#: who carries the added mass (A, or A_inf with bem): "platform" (all of it: the rigid Platform) or "point"
+#: (a flexible body carries the point-mass part of flexfmu.wec.barge.split_added_mass; this component applies
+#: the rest, -A_lagged xi_ddot, from the acc_* / alpha_* inputs: the body's acceleration, one step behind)
+ADDED_MASS = ("platform", "point")
 OUTPUT_NAMES = (tuple(f"F_{a}" for a in AXES) + tuple(f"M_{a}" for a in AXES)
                 + ("potential_energy", "radiation_power"))
 ZETA_NAMES = ("zeta_surge", "zeta_sway", "zeta_heave", "zeta_roll", "zeta_pitch", "zeta_yaw")
@@ -54,6 +61,7 @@ class HydrostaticsConfig(BoxParameters):
     zeta_pitch: float = 0.10
     zeta_yaw: float = 0.10
     hydrodynamics: str = "constant"
+    added_mass: str = "platform"
 
     def zeta(self) -> np.ndarray:
         return np.array([getattr(self, n) for n in ZETA_NAMES])
@@ -122,6 +130,7 @@ class HydrostaticsSimulator(MemorylessSimulator):
         super().__init__(config)
         check_config(config)
         check_hydrodynamics(config)
+        require(config.added_mass in ADDED_MASS, "added_mass", f"got {config.added_mass!r}", " | ".join(ADDED_MASS))
         self.memory = None                 # the radiation memory (hydrodynamics = bem), for the last step size
         if config.hydrodynamics == "constant":
             self.C, self.B = coefficients(config)
@@ -129,6 +138,12 @@ class HydrostaticsSimulator(MemorylessSimulator):
             self.C, self.radiation = bem_model(config)
             self.B = np.zeros((6, 6))
             self.memory_state = np.zeros(self.radiation.order)
+        self.A_lagged = None
+        if config.added_mass == "point":
+            from flexfmu.wec.barge import split_added_mass
+            A = (config.box().added_mass() if config.hydrodynamics == "constant"
+                 else bem_added_mass_inf(bem_database(box_parameters(config))))
+            self.A_lagged = split_added_mass(A)[1]
 
     def step(self, step_size: float) -> None:
         if self.config.hydrodynamics == "constant":
@@ -138,7 +153,7 @@ class HydrostaticsSimulator(MemorylessSimulator):
         if self.memory is None or self.memory.h != float(step_size):
             # the exact zero-order hold depends on the step: rediscretised when the master changes it
             self.memory = RadiationMemory(self.radiation, step_size)
-        xi_dot = np.array([self.inputs[n] for n in INPUT_NAMES[6:]])
+        xi_dot = np.array([self.inputs[n] for n in INPUT_NAMES[_XI_DOT]])
         with np.errstate(all="ignore"):                     # overflow: checked by value below
             x = self.memory.Phi @ self.memory_state + self.memory.Gamma @ xi_dot
         size = float(np.max(np.abs(x)))
@@ -160,15 +175,18 @@ class HydrostaticsSimulator(MemorylessSimulator):
 
     def _outputs(self) -> dict[str, float]:
         v = self.inputs
-        xi = np.array([v[n] for n in INPUT_NAMES[:6]])
-        xi_dot = np.array([v[n] for n in INPUT_NAMES[6:]])
+        xi = np.array([v[n] for n in INPUT_NAMES[_XI]])
+        xi_dot = np.array([v[n] for n in INPUT_NAMES[_XI_DOT]])
         if self.config.hydrodynamics == "constant":
             force = -self.C @ xi - self.B @ xi_dot
-            values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ self.B @ xi_dot)]
+            values = [0.5 * float(xi @ self.C @ xi), float(xi_dot @ self.B @ xi_dot)]
         else:
             f_mem = self.memory_force()
             force = -self.C @ xi - f_mem
-            values = force.tolist() + [0.5 * float(xi @ self.C @ xi), float(xi_dot @ f_mem)]
+            values = [0.5 * float(xi @ self.C @ xi), float(xi_dot @ f_mem)]
+        if self.A_lagged is not None:
+            force = force - self.A_lagged @ np.array([v[n] for n in INPUT_NAMES[_XI_DDOT]])
+        values = force.tolist() + values
         return dict(zip(OUTPUT_NAMES, values))
 
     def get_state(self) -> dict:
@@ -213,6 +231,11 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **{f"rot_{a}": ("", f"small rotation about global {a}, rad") for a in AXES},
     **vector_info("vel", "m/s", "velocity of O", "global"),
     **vector_info("omega", "rad/s", "angular velocity", "global"),
+    "added_mass": ("", "who carries the added mass (A; A_inf with bem): platform (all of it, the rigid Platform) | "
+                       "point (a flexible body carries the point-mass part A_33 I + the rotational block at O, "
+                       "flexfmu.wec.barge; the rest -A_lagged xi_ddot is added here from acc_*, alpha_*)"),
+    **vector_info("acc", "m/s2", "acceleration of O (added_mass = point)", "global"),
+    **vector_info("alpha", "rad/s2", "angular acceleration (added_mass = point)", "global"),
     **vector_info("F", "N", "hydrostatic restoring plus radiation damping (bem: radiation memory) force",
                   "global"),
     **vector_info("M", "N.m", "hydrostatic restoring plus radiation damping (bem: radiation memory) moment about O",
