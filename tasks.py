@@ -3,7 +3,8 @@
 
     python3 tasks.py main    # set up .venv, then the main job: modal report, build the FMUs into
                              # dist/, run both papers' scenarios through fmpy (dist/*.png), export
-                             # the example bracket mesh as an FMU and run it in the wave converter
+                             # the example bracket mesh as an FMU and run it in the wave converter,
+                             # and the wave converter on a flexible barge (dist/barge_vs_rigid.png)
     python3 tasks.py test    # set up .venv, then run the whole test suite
 
 Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
@@ -75,7 +76,11 @@ def main() -> int:
                       "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top", "--f-max", "2000"],
                      ["-m", "flexfmu", "cosim", "examples/bracket/OspSystemStructure.xml", "--t-end", "10",
                       "--out", "dist/bracket_system.csv"],
-                     ["examples/bracket/plot_system.py", "dist/bracket_system.csv", "dist/bracket_system.png"]):
+                     ["examples/bracket/plot_system.py", "dist/bracket_system.csv", "dist/bracket_system.png"],
+                     # the wave converter on a flexible barge (docs/wave_converter.md)
+                     ["examples/flexible_barge/make_barge.py", "--out", "dist"],
+                     ["examples/flexible_barge/compare.py", "--t-end", "10", "--fmu-dir", "dist",
+                      "--plot", "dist/barge_vs_rigid.png"]):
             status = run(argv)
             if status:
                 return status

@@ -216,3 +216,29 @@ def harvester_f1(system) -> float:
     if len(found) != 1:
         raise ParameterError("SYSTEM_FILE", f"{len(found)} FFRBeam instances", "exactly one FFRBeam (the harvester)")
     return float(FFRBeamSimulator(LibrarySlave(found[0]).config).frequencies_hz[0])
+
+
+def rigid_box(p: BargeParameters) -> BoxParameters:
+    """The rigid box with the slab's rigid-body mass matrix (uniform L x B x t box at z_center, the displaced
+    mass): what the barge is when its elastic modes are left out."""
+    b, t = p.box, p.thickness
+    return BoxParameters(length=b.length, beam=b.beam, draft=b.draft, z_G=p.z_center,
+                         r_xx=float(np.sqrt((b.beam ** 2 + t ** 2) / 12)),
+                         r_yy=float(np.sqrt((b.length ** 2 + t ** 2) / 12)),
+                         r_zz=float(np.sqrt((b.length ** 2 + b.beam ** 2) / 12)), rho=b.rho, g=b.g)
+
+
+def rigid_system(system, p: BargeParameters, hydrodynamics: str = "bem"):
+    """The wave-converter ``system`` with its Platform given the barge's rigid-body mass matrix and mount point
+    (and ``hydrodynamics`` on the wave components): the rigid counterpart of :func:`barge_system`."""
+    from dataclasses import asdict
+
+    box = asdict(rigid_box(p))
+    mount = dict(zip(("mount_x", "mount_y", "mount_z"), p.mount_point))
+    values = {}
+    for s in system.simulators:
+        if s.model == "Platform":
+            values[s.name] = {**box, **mount, "hydrodynamics": hydrodynamics}
+        elif s.model in ("WaveExcitation", "Hydrostatics"):
+            values[s.name] = {"hydrodynamics": hydrodynamics}
+    return system.with_values(values)
