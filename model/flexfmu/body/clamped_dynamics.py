@@ -46,6 +46,17 @@ class ClampedDynamics:
         C = np.diag(self.damping) + np.einsum("k,kij->ij", w, B - B.transpose(0, 2, 1))
         return K, C
 
+    def system_matrix(self, w, alpha) -> np.ndarray:
+        """A of x' = A x + [0; r], x = [eta; eta_d], for the held base rotation (2m, 2m): what :meth:`transition`
+        advances exactly."""
+        m = self.m
+        K, C = self.matrices(w, alpha)
+        A = np.zeros((2 * m, 2 * m))
+        A[:m, m:] = np.eye(m)
+        A[m:, :m] = -K
+        A[m:, m:] = -C
+        return A
+
     def modal_force(self, loads, a0, w, alpha) -> np.ndarray:
         """Right side of (B2): loads (n_if, 6) [F, M] per interface, body frame."""
         r = -self.inv["Sa"] @ a0 - self.inv["Sw"] @ alpha + np.einsum("k,l,klj->j", w, w, self.inv["R"])

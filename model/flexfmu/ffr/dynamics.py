@@ -46,6 +46,7 @@ evaluated to first order in q (the elastic motion is small by assumption).
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -214,6 +215,17 @@ class FFRBeamDynamics:
             self.G_X_hat, self.G_a0_hat = inertial_geometric_stiffness(model).modal(Phi)
         self._cache = BoundedCache(MAP_MEMO_SIZE)
         self._fast_cache = BoundedCache(MAP_MEMO_SIZE)
+
+    def with_damping(self, damping_ratio: float) -> "FFRBeamDynamics":
+        """This model with another modal damping ratio: a shallow copy sharing the model data, with its own map
+        caches.  Any finite value (flexfmu.native.lti samples the maps' dependence on it around 0)."""
+        require(np.isfinite(damping_ratio), "damping_ratio", f"got {damping_ratio!r}", "a finite number")
+        other = copy.copy(self)
+        other.damping_ratio = float(damping_ratio)
+        other.damping = 2.0 * other.damping_ratio * self.omega_n
+        other._cache = BoundedCache(MAP_MEMO_SIZE)
+        other._fast_cache = BoundedCache(MAP_MEMO_SIZE)
+        return other
 
     # ------------------------------------------------------------ equations of motion
     def _matrices(self, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:

@@ -21,6 +21,7 @@ why, and the RK4 sub-stepping, go to ``messages`` (logged by the FMU).
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
@@ -399,13 +400,34 @@ class FFRBeamSimulator:
         return StepRejected("step_size", f"a communication step of {h!r} s makes the step's transition matrix "
                                          "overflow (not finite); take a smaller communication step")
 
+    @staticmethod
+    def static_correction_weights(base: BaseMotion) -> np.ndarray:
+        """X_ab = ([alpha]x + [omega]x^2)_ab, row-major (9,): the weights of the static correction's rotation load
+        patterns for the held base rotation (its load vector is [F, M, a0, X_ab])."""
+        W = _skew(base.omega)
+        return (_skew(base.alpha) + W @ W).ravel()
+
+    def with_damping(self, damping_ratio: float) -> "FFRBeamSimulator":
+        """A copy of this instance (state, inputs) whose dynamics has another modal damping ratio, any finite value
+        (flexfmu.native.lti samples the maps' dependence on it); shares the built model, has its own map caches.
+        Its ``config`` still names the original damping ratio."""
+        other = copy.copy(self)
+        other.dynamics = self.dynamics.with_damping(damping_ratio)
+        other.messages = []
+        other.state = self.state.copy()
+        other.inputs = dict(self.inputs)
+        other._u = self._u.copy()
+        other._map_cache = BoundedCache(MAP_MEMO_SIZE)
+        other._x, other._x_state = None, None
+        other._held_input_cache = None
+        return other
+
     def _add_static_correction(self, Cu: np.ndarray, y: np.ndarray, base: BaseMotion):
         """Residual flexibility (flexfmu.sizing.model_size) in the output maps for the held base rotation:
         sensor_u and tip_u gain R f as affine terms of the inputs [F, M, a0]; returns the strain energy's
         1/2 f^T R f as (Q (9, 9), linear (9,), constant) in those inputs."""
         corr = self.static_correction
-        W = _skew(base.omega)
-        xab = (_skew(base.alpha) + W @ W).ravel()                 # X_ab, row-major: the rotation patterns' weights
+        xab = self.static_correction_weights(base)               # X_ab, row-major: the rotation patterns' weights
         for rows, block in ((slice(0, 3), corr.sensor), (slice(9, 12), corr.tip)):
             Cu[rows] += block[:, :9]
             y[rows] += block[:, 9:] @ xab

@@ -1,0 +1,577 @@
+/*
+ * lti_kernels.c - evaluation of the parameter-dependent linear system of lti_kernels.h: monomials, assembly,
+ * the matrix exponential (scaling and squaring, [13/13] Pade), the cached step and output maps, the step and the
+ * outputs.  C99, libc/libm only, no allocation.
+ */
+#include "lti_kernels.h"
+
+#include <math.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------ small helpers */
+
+static int all_finite(const double *v, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (!isfinite(v[i])) return 0;
+    }
+    return 1;
+}
+
+/* C = A B, all (n, n) row-major; C must not alias A or B. */
+static void matmul(int n, const double *A, const double *B, double *C)
+{
+    int i, j, k;
+    for (i = 0; i < n; i++) {
+        double *c = C + (size_t)i * n;
+        for (j = 0; j < n; j++) c[j] = 0.0;
+        for (k = 0; k < n; k++) {
+            const double a = A[(size_t)i * n + k];
+            const double *b = B + (size_t)k * n;
+            if (a == 0.0) continue;
+            for (j = 0; j < n; j++) c[j] += a * b[j];
+        }
+    }
+}
+
+/* 1-norm (largest column sum of absolute values) of the (n, n) matrix A. */
+static double norm1(int n, const double *A, double *col)
+{
+    int i, j;
+    double best = 0.0;
+    for (j = 0; j < n; j++) col[j] = 0.0;
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++) col[j] += fabs(A[(size_t)i * n + j]);
+    }
+    for (j = 0; j < n; j++) {
+        if (col[j] > best) best = col[j];
+    }
+    return best;
+}
+
+/* to = from^T |A| (the row vector of column sums of |A| weighted by from), |A| given as absA. */
+static void spin(int n, const double *absA, const double *from, double *to)
+{
+    int i, j;
+    for (j = 0; j < n; j++) to[j] = 0.0;
+    for (i = 0; i < n; i++) {
+        const double f = from[i];
+        const double *row = absA + (size_t)i * n;
+        for (j = 0; j < n; j++) to[j] += f * row[j];
+    }
+}
+
+static double vmax(int n, const double *v)
+{
+    int i;
+    double best = 0.0;
+    for (i = 0; i < n; i++) {
+        if (v[i] > best) best = v[i];
+    }
+    return best;
+}
+
+/* ------------------------------------------------------------------ model, monomials, assembly */
+
+int ffx_lti_check_model(const ffx_lti_model *m)
+{
+    int k, nz;
+    if (m == NULL) return FFX_LTI_BAD_ARGUMENT;
+    if (m->nx < 0 || m->nu < 0 || m->ny < 0 || m->np < 0 || m->nquad < 0) return FFX_LTI_BAD_ARGUMENT;
+    if (m->nmono != FFX_LTI_N_MONOMIALS(m->np)) return FFX_LTI_BAD_ARGUMENT;
+    if ((m->nx > 0 && (m->A == NULL || m->b == NULL)) || (m->nx > 0 && m->nu > 0 && m->B == NULL))
+        return FFX_LTI_BAD_ARGUMENT;
+    if (m->ny > 0 && (m->y0 == NULL || (m->nx > 0 && m->Cx == NULL) || (m->nu > 0 && m->Cu == NULL)))
+        return FFX_LTI_BAD_ARGUMENT;
+    if (m->nquad > 0 && (m->quad_row == NULL || m->quad_i == NULL || m->quad_j == NULL || m->quad_value == NULL))
+        return FFX_LTI_BAD_ARGUMENT;
+    nz = m->nx + m->nu + m->nmono;
+    for (k = 0; k < m->nquad; k++) {
+        if (m->quad_row[k] < 0 || m->quad_row[k] >= m->ny || m->quad_i[k] < 0 || m->quad_i[k] >= nz
+            || m->quad_j[k] < 0 || m->quad_j[k] >= nz)
+            return FFX_LTI_BAD_ARGUMENT;
+    }
+    return FFX_LTI_OK;
+}
+
+void ffx_lti_monomials(int np, const double *p, double *mono)
+{
+    int i, j, k = 1 + np;
+    mono[0] = 1.0;
+    for (i = 0; i < np; i++) mono[1 + i] = p[i];
+    for (i = 0; i < np; i++) {
+        for (j = i; j < np; j++) mono[k++] = p[i] * p[j];
+    }
+}
+
+/* out (len) = sum_k mono[k] coef[k] (coef: (nmono, len)); monomials that are zero are skipped. */
+static void combine(int nmono, size_t len, const double *coef, const double *mono, double *out)
+{
+    int k;
+    size_t i;
+    for (i = 0; i < len; i++) out[i] = coef[i];          /* mono[0] = 1 */
+    for (k = 1; k < nmono; k++) {
+        const double c = mono[k];
+        const double *a = coef + (size_t)k * len;
+        if (c == 0.0) continue;
+        for (i = 0; i < len; i++) out[i] += c * a[i];
+    }
+}
+
+void ffx_lti_assemble_dynamics(const ffx_lti_model *m, const double *mono, double *A, double *B, double *b)
+{
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu;
+    if (nx == 0) return;
+    combine(m->nmono, nx * nx, m->A, mono, A);
+    if (nu > 0) combine(m->nmono, nx * nu, m->B, mono, B);
+    combine(m->nmono, nx, m->b, mono, b);
+}
+
+void ffx_lti_assemble_outputs(const ffx_lti_model *m, const double *mono, double *Cx, double *Cu, double *y0)
+{
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny;
+    if (ny == 0) return;
+    if (nx > 0) combine(m->nmono, ny * nx, m->Cx, mono, Cx);
+    if (nu > 0) combine(m->nmono, ny * nu, m->Cu, mono, Cu);
+    combine(m->nmono, ny, m->y0, mono, y0);
+}
+
+/* ------------------------------------------------------------------ matrix exponential */
+
+/* [13/13] Pade coefficients b_0 .. b_13 (Higham 2005, Table 2.3 / scipy) */
+static const double PADE13[14] = {
+    64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0, 129060195264000.0,
+    10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0, 960960.0, 16380.0, 182.0, 1.0};
+/* theta_13 of Al-Mohy & Higham (2009) and the constant of their backward-error bound for m = 13 (the values
+ * scipy.linalg.expm uses) */
+static const double THETA13 = 4.25;
+static const double ELL13 = 1.2573361865339437e+19;
+/* more squarings than 2^-1100 |A| needs for any finite A */
+#define MAX_SQUARINGS 1100
+
+size_t ffx_lti_expm_work_len(int n)
+{
+    const size_t nn = (size_t)(n > 0 ? n : 0) * (size_t)(n > 0 ? n : 0);
+    return 8 * nn + 3 * (size_t)(n > 0 ? n : 0);
+}
+
+/* Solve Q X = P (n, n; X overwrites P) by LU with partial pivoting of Q (overwritten); 0, or 1 if singular. */
+static int lu_solve(int n, double *Q, double *P)
+{
+    int i, j, k, piv;
+    for (k = 0; k < n; k++) {
+        double best = fabs(Q[(size_t)k * n + k]);
+        double pivot, inv;
+        piv = k;
+        for (i = k + 1; i < n; i++) {
+            const double v = fabs(Q[(size_t)i * n + k]);
+            if (v > best) {
+                best = v;
+                piv = i;
+            }
+        }
+        if (!(best > 0.0)) return 1;
+        if (piv != k) {
+            double *r1 = Q + (size_t)k * n, *r2 = Q + (size_t)piv * n;
+            for (j = 0; j < n; j++) {
+                const double t = r1[j];
+                r1[j] = r2[j];
+                r2[j] = t;
+            }
+            r1 = P + (size_t)k * n;
+            r2 = P + (size_t)piv * n;
+            for (j = 0; j < n; j++) {
+                const double t = r1[j];
+                r1[j] = r2[j];
+                r2[j] = t;
+            }
+        }
+        pivot = Q[(size_t)k * n + k];
+        inv = 1.0 / pivot;
+        for (i = k + 1; i < n; i++) {
+            double *qi = Q + (size_t)i * n, *pi = P + (size_t)i * n;
+            const double *qk = Q + (size_t)k * n, *pk = P + (size_t)k * n;
+            const double l = qi[k] * inv;
+            qi[k] = l;
+            if (l == 0.0) continue;
+            for (j = k + 1; j < n; j++) qi[j] -= l * qk[j];
+            for (j = 0; j < n; j++) pi[j] -= l * pk[j];        /* forward substitution with L */
+        }
+    }
+    for (k = n - 1; k >= 0; k--) {                            /* back substitution with U */
+        double *pk = P + (size_t)k * n;
+        const double *qk = Q + (size_t)k * n;
+        const double inv = 1.0 / qk[k];
+        for (i = k + 1; i < n; i++) {
+            const double u = qk[i];
+            const double *pi = P + (size_t)i * n;
+            if (u == 0.0) continue;
+            for (j = 0; j < n; j++) pk[j] -= u * pi[j];
+        }
+        for (j = 0; j < n; j++) pk[j] *= inv;
+    }
+    return 0;
+}
+
+int ffx_lti_expm(int n, const double *M, double *E, double *work)
+{
+    const size_t nn = (size_t)(n > 0 ? n : 0) * (size_t)(n > 0 ? n : 0);
+    double *A = work, *A2 = work + nn, *A4 = work + 2 * nn, *A6 = work + 3 * nn;
+    double *U = work + 4 * nn, *V = work + 5 * nn, *T = work + 6 * nn, *absA = work + 7 * nn;
+    double *v0 = work + 8 * nn, *v1 = v0 + n, *col = v1 + n;
+    double normA, d6, d8, d10, eta, ratio;
+    const double *b = PADE13;
+    int s = 0, i, j, k;
+    size_t q;
+
+    if (n < 0 || (n > 0 && (M == NULL || E == NULL || work == NULL))) return FFX_LTI_BAD_ARGUMENT;
+    if (n == 0) return FFX_LTI_OK;
+    if (!all_finite(M, nn)) {
+        for (q = 0; q < nn; q++) E[q] = NAN;
+        return FFX_LTI_NONFINITE;
+    }
+    memcpy(A, M, nn * sizeof(double));
+    for (q = 0; q < nn; q++) absA[q] = fabs(A[q]);
+    for (i = 0; i < n; i++) v0[i] = 1.0;
+    spin(n, absA, v0, v1);                                     /* ||A||_1 = max of 1^T |A| */
+    normA = vmax(n, v1);
+    if (normA == 0.0) {                                        /* the zero matrix */
+        for (q = 0; q < nn; q++) E[q] = 0.0;
+        for (i = 0; i < n; i++) E[(size_t)i * n + i] = 1.0;
+        return FFX_LTI_OK;
+    }
+
+    /* The scaling s of Al-Mohy & Higham (2009) for the degree 13 (as scipy.linalg.expm): from
+     * eta = min(max(d6, d8), max(d8, d10)), d_k = ||A^k||_1^(1/k), then raised by the bound on |A|^27. */
+    matmul(n, A, A, A2);
+    matmul(n, A2, A2, A4);
+    matmul(n, A4, A2, A6);
+    d6 = pow(norm1(n, A6, col), 1.0 / 6.0);
+    matmul(n, A4, A4, T);                                      /* A^8 */
+    d8 = pow(norm1(n, T, col), 0.125);
+    matmul(n, A6, A4, T);                                      /* A^10 */
+    d10 = pow(norm1(n, T, col), 0.1);
+    eta = fmin(fmax(d6, d8), fmax(d8, d10));
+    if (!isfinite(eta) || !isfinite(normA)) {
+        /* powers beyond the double range (|A| > ~1e51): s from the 1-norm (Higham 2005), the powers of 2^-s A
+         * recomputed, no further bound; the result then mostly overflows, reported by the final check */
+        const double r = isfinite(normA) ? ceil(log2(normA / THETA13)) : (double)MAX_SQUARINGS;
+        const double s0 = ldexp(1.0, -(s = r < MAX_SQUARINGS ? (int)r : MAX_SQUARINGS));
+        for (q = 0; q < nn; q++) A[q] *= s0;
+        matmul(n, A, A, A2);
+        matmul(n, A2, A2, A4);
+        matmul(n, A4, A2, A6);
+        goto pade;
+    }
+    if (eta > THETA13) {
+        const double r = ceil(log2(eta / THETA13));
+        s = r > 0.0 ? (r < MAX_SQUARINGS ? (int)r : MAX_SQUARINGS) : 0;
+    }
+    /* || |2^-s A|^27 ||_1 by 27 products 1^T |A| ...; the first is v1 */
+    {
+        const double scale = ldexp(1.0, -s);
+        double *from = v1, *to = v0, *t;
+        for (q = 0; q < nn; q++) absA[q] *= scale;
+        for (i = 0; i < n; i++) v1[i] *= scale;
+        normA *= scale;
+        for (k = 1; k < 27; k++) {
+            spin(n, absA, from, to);
+            t = from;
+            from = to;
+            to = t;
+        }
+        ratio = vmax(n, from) / normA / ELL13;
+        if (ratio > 1.0 && isfinite(ratio)) {
+            const double r = ceil(log2(ratio) / 26.0);
+            s += r > 0.0 ? (r < MAX_SQUARINGS ? (int)r : MAX_SQUARINGS) : 0;
+        }
+    }
+    if (s > 0) {
+        const double s0 = ldexp(1.0, -s), s1 = ldexp(1.0, -2 * s), s2 = ldexp(1.0, -4 * s), s3 = ldexp(1.0, -6 * s);
+        for (q = 0; q < nn; q++) {
+            A[q] *= s0;
+            A2[q] *= s1;
+            A4[q] *= s2;
+            A6[q] *= s3;
+        }
+    }
+
+pade:
+    /* U = A [A6 (b13 A6 + b11 A4 + b9 A2) + b7 A6 + b5 A4 + b3 A2 + b1 I]
+     * V =    A6 (b12 A6 + b10 A4 + b8 A2) + b6 A6 + b4 A4 + b2 A2 + b0 I */
+    for (q = 0; q < nn; q++) T[q] = b[13] * A6[q] + b[11] * A4[q] + b[9] * A2[q];
+    matmul(n, A6, T, V);
+    for (q = 0; q < nn; q++) V[q] += b[7] * A6[q] + b[5] * A4[q] + b[3] * A2[q];
+    for (i = 0; i < n; i++) V[(size_t)i * n + i] += b[1];
+    matmul(n, A, V, U);
+    for (q = 0; q < nn; q++) T[q] = b[12] * A6[q] + b[10] * A4[q] + b[8] * A2[q];
+    matmul(n, A6, T, V);
+    for (q = 0; q < nn; q++) V[q] += b[6] * A6[q] + b[4] * A4[q] + b[2] * A2[q];
+    for (i = 0; i < n; i++) V[(size_t)i * n + i] += b[0];
+    /* R = (V - U)^-1 (V + U) = (V + U) (V - U)^-1 (U and V commute): solved as R (V - U) = V + U, i.e.
+     * (V - U)^T R^T = (V + U)^T, as scipy.linalg.expm does (LAPACK on the row-major arrays). */
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++) {
+            const size_t ij = (size_t)i * n + j, ji = (size_t)j * n + i;
+            T[ji] = V[ij] - U[ij];                             /* (V - U)^T */
+            A2[ji] = V[ij] + U[ij];                            /* (V + U)^T, then R^T */
+        }
+    }
+    if (lu_solve(n, T, A2)) return FFX_LTI_SINGULAR;
+    for (i = 0; i < n; i++) {
+        for (j = 0; j < n; j++) E[(size_t)i * n + j] = A2[(size_t)j * n + i];
+    }
+    /* A row of M that is zero is that row of I in expm(M) and in the Pade approximant (e_i^T (V - U) = b0 e_i^T):
+     * set exactly, so that the squarings do not amplify its rounding (the augmented matrix's last rows: else the
+     * input columns Bd, bd would lose ~2^s eps) */
+    for (i = 0; i < n; i++) {
+        const double *row = M + (size_t)i * n;
+        for (j = 0; j < n && row[j] == 0.0; j++) {
+        }
+        if (j == n) {
+            for (j = 0; j < n; j++) E[(size_t)i * n + j] = (i == j) ? 1.0 : 0.0;
+        }
+    }
+    for (j = 0; j < s; j++) {                                  /* squaring */
+        matmul(n, E, E, T);
+        memcpy(E, T, nn * sizeof(double));
+        if (!all_finite(E, nn)) return FFX_LTI_NONFINITE;
+    }
+    return all_finite(E, nn) ? FFX_LTI_OK : FFX_LTI_NONFINITE;
+}
+
+/* ------------------------------------------------------------------ cached maps */
+
+static size_t aug_n(const ffx_lti_model *m)
+{
+    return (size_t)m->nx + (size_t)m->nu + 1;
+}
+
+size_t ffx_lti_maps_work_len(const ffx_lti_model *m)
+{
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny, np = (size_t)m->np;
+    const size_t nmono = (size_t)FFX_LTI_N_MONOMIALS(m->np), n = aug_n(m);
+    return 2 * np                                /* p_step, p_output */
+           + nx * nx + nx * nu + nx              /* Ad, Bd, bd */
+           + ny * nx + ny * nu + ny              /* Cx, Cu, y0 */
+           + (nx + nu + nmono)                   /* z */
+           + nmono + nx                          /* mono, x_new */
+           + 2 * n * n                           /* aug, its exponential */
+           + ffx_lti_expm_work_len((int)n);
+}
+
+int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len)
+{
+    size_t nx, nu, ny, np, n;
+    double *w = work;
+    if (maps == NULL || ffx_lti_check_model(m) != FFX_LTI_OK) return FFX_LTI_BAD_ARGUMENT;
+    if (work == NULL || work_len < ffx_lti_maps_work_len(m)) return FFX_LTI_BAD_ARGUMENT;
+    nx = (size_t)m->nx;
+    nu = (size_t)m->nu;
+    ny = (size_t)m->ny;
+    np = (size_t)m->np;
+    n = aug_n(m);
+    memset(maps, 0, sizeof(*maps));
+    maps->model = m;
+    maps->p_step = w;
+    w += np;
+    maps->p_output = w;
+    w += np;
+    maps->Ad = w;
+    w += nx * nx;
+    maps->Bd = w;
+    w += nx * nu;
+    maps->bd = w;
+    w += nx;
+    maps->Cx = w;
+    w += ny * nx;
+    maps->Cu = w;
+    w += ny * nu;
+    maps->y0 = w;
+    w += ny;
+    maps->z = w;
+    w += nx + nu + (size_t)m->nmono;
+    maps->mono = w;
+    w += (size_t)m->nmono;
+    maps->x_new = w;
+    w += nx;
+    maps->aug = w;
+    w += 2 * n * n;
+    maps->expm_work = w;
+    ffx_lti_maps_invalidate(maps);
+    return FFX_LTI_OK;
+}
+
+void ffx_lti_maps_invalidate(ffx_lti_maps *maps)
+{
+    maps->step_valid = 0;
+    maps->output_valid = 0;
+}
+
+static int same_p(int np, const double *a, const double *p)
+{
+    int i;
+    for (i = 0; i < np; i++) {
+        if (!(a[i] == p[i])) return 0;
+    }
+    return 1;
+}
+
+int ffx_lti_update_step_maps(ffx_lti_maps *maps, const double *p, double h)
+{
+    const ffx_lti_model *m = maps->model;
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, n = aug_n(m);
+    double *M = maps->aug, *E = maps->aug + n * n;
+    size_t i, j, k;
+    int status;
+
+    if (!isfinite(h) || h < 0.0) return FFX_LTI_BAD_ARGUMENT;
+    if (maps->step_valid && maps->h == h && same_p(m->np, maps->p_step, p)) return FFX_LTI_OK;
+    maps->step_valid = 0;
+    maps->n_step_updates++;
+    ffx_lti_monomials(m->np, p, maps->mono);
+    /* M = [[A B b]; [0 0 0]] h, assembled in place (rows of A, B, b side by side) */
+    memset(M, 0, n * n * sizeof(double));
+    for (i = 0; i < nx; i++) {
+        double *row = M + i * n;
+        for (j = 0; j < nx; j++) row[j] = m->A[i * nx + j];
+        for (j = 0; j < nu; j++) row[nx + j] = m->B[i * nu + j];
+        row[nx + nu] = m->b[i];
+    }
+    for (k = 1; k < (size_t)m->nmono && nx > 0; k++) {
+        const double c = maps->mono[k];
+        const double *Ak = m->A + k * nx * nx, *Bk = nu > 0 ? m->B + k * nx * nu : NULL, *bk = m->b + k * nx;
+        if (c == 0.0) continue;
+        for (i = 0; i < nx; i++) {
+            double *row = M + i * n;
+            for (j = 0; j < nx; j++) row[j] += c * Ak[i * nx + j];
+            for (j = 0; j < nu; j++) row[nx + j] += c * Bk[i * nu + j];
+            row[nx + nu] += c * bk[i];
+        }
+    }
+    for (i = 0; i < nx; i++) {
+        for (j = 0; j < n; j++) M[i * n + j] *= h;
+    }
+    status = ffx_lti_expm((int)n, M, E, maps->expm_work);
+    if (status != FFX_LTI_OK) return status;
+    for (i = 0; i < nx; i++) {
+        const double *row = E + i * n;
+        for (j = 0; j < nx; j++) maps->Ad[i * nx + j] = row[j];
+        for (j = 0; j < nu; j++) maps->Bd[i * nu + j] = row[nx + j];
+        maps->bd[i] = row[nx + nu];
+    }
+    for (i = 0; i < (size_t)m->np; i++) maps->p_step[i] = p[i];
+    maps->h = h;
+    maps->step_valid = 1;
+    return FFX_LTI_OK;
+}
+
+int ffx_lti_update_output_maps(ffx_lti_maps *maps, const double *p)
+{
+    const ffx_lti_model *m = maps->model;
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny;
+    double *mono = maps->z + nx + nu;
+    size_t i;
+    if (maps->output_valid && same_p(m->np, maps->p_output, p)) return FFX_LTI_OK;
+    maps->output_valid = 0;
+    maps->n_output_updates++;
+    ffx_lti_monomials(m->np, p, mono);
+    ffx_lti_assemble_outputs(m, mono, maps->Cx, maps->Cu, maps->y0);
+    if (!all_finite(mono, (size_t)m->nmono) || !all_finite(maps->Cx, ny * nx) || !all_finite(maps->Cu, ny * nu)
+        || !all_finite(maps->y0, ny))
+        return FFX_LTI_NONFINITE;
+    for (i = 0; i < (size_t)m->np; i++) maps->p_output[i] = p[i];
+    maps->output_valid = 1;
+    return FFX_LTI_OK;
+}
+
+int ffx_lti_step(ffx_lti_maps *maps, const double *p, double h, const double *x, const double *u, double *x_next)
+{
+    return ffx_lti_steps(maps, p, h, 1, x, u, x_next);
+}
+
+int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const double *x, const double *u,
+                  double *x_next)
+{
+    const ffx_lti_model *m = maps->model;
+    const size_t nx = (size_t)m->nx, nu = (size_t)m->nu;
+    double *a = maps->x_new, *c = maps->aug;       /* two state buffers: aug is free between map updates */
+    long k;
+    int status;
+    if (n < 0) return FFX_LTI_BAD_ARGUMENT;
+    status = ffx_lti_update_step_maps(maps, p, h);
+    if (status != FFX_LTI_OK) return status;
+    if (n == 0) {
+        if (x_next != x) memmove(x_next, x, nx * sizeof(double));
+        return FFX_LTI_OK;
+    }
+    /* the per-step input term Bd u + bd once: c[nx..2nx) */
+    {
+        double *g = c + nx;
+        size_t i, j;
+        for (i = 0; i < nx; i++) {
+            const double *bu = maps->Bd + i * nu;
+            double su = 0.0;
+            for (j = 0; j < nu; j++) su += bu[j] * u[j];
+            g[i] = su + maps->bd[i];
+        }
+        {
+            const double *from = x;
+            double *to = a;
+            for (k = 0; k < n; k++) {
+                for (i = 0; i < nx; i++) {
+                    const double *ad = maps->Ad + i * nx;
+                    double sx = 0.0;
+                    for (j = 0; j < nx; j++) sx += ad[j] * from[j];
+                    to[i] = sx + g[i];
+                }
+                from = to;
+                to = (to == a) ? c : a;
+            }
+            if (from != a) memcpy(a, from, nx * sizeof(double));
+        }
+    }
+    if (!all_finite(a, nx)) return FFX_LTI_NONFINITE;
+    memcpy(x_next, a, nx * sizeof(double));
+    return FFX_LTI_OK;
+}
+
+int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y)
+{
+    const ffx_lti_model *m = maps->model;
+    const int nx = m->nx, nu = m->nu, ny = m->ny;
+    double *z = maps->z;
+    int r, j, k, status;
+    status = ffx_lti_update_output_maps(maps, p);
+    if (status != FFX_LTI_OK) {
+        for (r = 0; r < ny; r++) y[r] = NAN;
+        return status;
+    }
+    for (r = 0; r < ny; r++) {
+        const double *cx = maps->Cx + (size_t)r * nx, *cu = maps->Cu + (size_t)r * nu;
+        double sx = 0.0, su = 0.0;
+        for (j = 0; j < nx; j++) sx += cx[j] * x[j];
+        for (j = 0; j < nu; j++) su += cu[j] * u[j];
+        y[r] = sx + su + maps->y0[r];
+    }
+    if (m->nquad > 0) {
+        memcpy(z, x, (size_t)nx * sizeof(double));
+        memcpy(z + nx, u, (size_t)nu * sizeof(double));     /* z[nx + nu ..] = mono(p_output), kept */
+        for (k = 0; k < m->nquad; k++)
+            y[m->quad_row[k]] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+    }
+    return all_finite(y, (size_t)ny) ? FFX_LTI_OK : FFX_LTI_NONFINITE;
+}
+
+const char *ffx_lti_status_string(int status)
+{
+    switch (status) {
+    case FFX_LTI_OK: return "ok";
+    case FFX_LTI_NONFINITE: return "a result is not finite (NaN or overflow)";
+    case FFX_LTI_SINGULAR: return "the Pade denominator of the matrix exponential is singular";
+    case FFX_LTI_BAD_ARGUMENT: return "bad argument: inconsistent model, too little workspace, or a step not finite "
+                                      "or negative";
+    default: return "unknown status";
+    }
+}

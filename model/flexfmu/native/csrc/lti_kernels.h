@@ -1,0 +1,127 @@
+/*
+ * lti_kernels.h - a clamped flexible body on a moving base as a linear system whose matrices depend on
+ * held parameters p (the base rotation rate and acceleration, the damping ratio, ...):
+ *
+ *     x' = A(p) x + B(p) u + b(p)                           (continuous time, inputs u held over a step)
+ *     y  = Cx(p) x + Cu(p) u + y0(p) + sum_k v_k z[i_k] z[j_k] e_{r_k},   z = [x; u; mono(p)]
+ *
+ * Every matrix is a sum over monomials of p up to degree 2 (mono = [1, p_1..p_np, p_i p_j for i <= j],
+ * FFX_LTI_N_MONOMIALS(np) of them) of constant coefficient matrices, so the physics is written once
+ * (in Python, flexfmu.native.lti extracts the coefficients from the library's own maps) and this file only
+ * evaluates it.  A step of length h is the exact zero-order hold: expm([[A B b];[0 0 0]] h), recomputed
+ * only when p or h changes.  All arrays row-major doubles.  C99, libc/libm only.
+ *
+ * Monomial order (0-based p): mono[0] = 1, mono[1 + i] = p[i], then p[i] * p[j] for i = 0..np-1, j = i..np-1
+ * (i outer, j inner).  Coefficient k of a matrix multiplies mono[k]: A(p) = sum_k mono[k] A[k].
+ *
+ * Memory: nothing here allocates.  The caller gives ffx_lti_maps its workspace (ffx_lti_maps_work_len doubles),
+ * and ffx_lti_expm its own (ffx_lti_expm_work_len doubles); the model (the struct and its arrays) is only read and
+ * must outlive the maps.  Functions returning int return one of the FFX_LTI_* codes below.
+ */
+#ifndef FLEXFMU_LTI_KERNELS_H
+#define FLEXFMU_LTI_KERNELS_H
+
+#include <stddef.h>
+
+#define FFX_LTI_N_MONOMIALS(np) (1 + (np) + (np) * ((np) + 1) / 2)
+
+/* return codes */
+#define FFX_LTI_OK 0
+#define FFX_LTI_NONFINITE 1      /* a result (step maps, new state or outputs) is not finite: NaN or overflow */
+#define FFX_LTI_SINGULAR 2       /* the Pade denominator of the exponential is singular (a non-finite matrix) */
+#define FFX_LTI_BAD_ARGUMENT 3   /* inconsistent model, too little workspace, or h not finite or < 0 */
+
+typedef struct {
+    int nx, nu, ny, np, nmono;     /* nmono = FFX_LTI_N_MONOMIALS(np) */
+    const double *A;               /* (nmono, nx, nx) */
+    const double *B;               /* (nmono, nx, nu) */
+    const double *b;               /* (nmono, nx) */
+    const double *Cx;              /* (nmono, ny, nx) */
+    const double *Cu;              /* (nmono, ny, nu) */
+    const double *y0;              /* (nmono, ny) */
+    int nquad;                     /* quadratic output terms y[row] += value * z[i] * z[j] */
+    const int *quad_row, *quad_i, *quad_j;
+    const double *quad_value;
+} ffx_lti_model;
+
+/* The maps of the last (p, h) (step) and the last p (outputs), in caller memory (ffx_lti_maps_init).  Read-only
+ * for the caller; Ad (nx, nx), Bd (nx, nu), bd (nx) are valid while step_valid, Cx (ny, nx), Cu (ny, nu),
+ * y0 (ny) while output_valid.  The counters count the recomputations (tests, benchmarks).  One ffx_lti_maps per
+ * instance (not thread-safe); it holds no state of the system: x is the caller's (FMU get/set state need only x). */
+typedef struct {
+    const ffx_lti_model *model;
+    int step_valid, output_valid;
+    double h;                      /* step of Ad, Bd, bd */
+    double *p_step, *p_output;     /* (np) p of the step maps, of the output maps */
+    double *Ad, *Bd, *bd;
+    double *Cx, *Cu, *y0;
+    double *z;                     /* (nx + nu + nmono) [x; u; mono(p_output)] for the quadratic terms */
+    double *mono, *x_new;          /* scratch: (nmono), (nx) */
+    double *aug, *expm_work;       /* scratch: the augmented matrix and its exponential (2, n, n), n = nx + nu + 1
+                                      (ffx_lti_steps' state buffers between updates), and ffx_lti_expm's workspace */
+    long n_step_updates, n_output_updates;
+} ffx_lti_maps;
+
+/* 0 (FFX_LTI_OK) if the model's sizes and quadratic-term indices are consistent (nmono, 0 <= rows < ny,
+ * 0 <= i, j < nx + nu + nmono, non-null arrays where sizes are non-zero), else FFX_LTI_BAD_ARGUMENT. */
+int ffx_lti_check_model(const ffx_lti_model *m);
+
+/* mono[0 .. FFX_LTI_N_MONOMIALS(np) - 1] of p[0 .. np - 1] (order above). */
+void ffx_lti_monomials(int np, const double *p, double *mono);
+
+/* Continuous-time matrices for the monomials ``mono`` (ffx_lti_monomials of p): A (nx, nx), B (nx, nu), b (nx). */
+void ffx_lti_assemble_dynamics(const ffx_lti_model *m, const double *mono, double *A, double *B, double *b);
+
+/* Output matrices for ``mono``: Cx (ny, nx), Cu (ny, nu), y0 (ny) (the quadratic terms are not in them). */
+void ffx_lti_assemble_outputs(const ffx_lti_model *m, const double *mono, double *Cx, double *Cu, double *y0);
+
+/* Doubles of workspace ffx_lti_expm needs for an n x n matrix. */
+size_t ffx_lti_expm_work_len(int n);
+
+/* E = expm(M), M and E (n, n) row-major (E may not alias M): scaling and squaring with the [13/13] Pade
+ * approximant (Higham 2005).  The scaling 2^-s as scipy.linalg.expm chooses it for degree 13 (Al-Mohy & Higham
+ * 2009: from ||M^k||_1^(1/k), k = 6, 8, 10, raised by the bound on || |M|^27 ||_1), R from R (V - U) = V + U by LU
+ * with partial pivoting (as scipy), then s squarings; a row of M that is zero gives exactly that row of I.
+ * work: ffx_lti_expm_work_len(n) doubles.  FFX_LTI_NONFINITE if M or E is not finite, FFX_LTI_SINGULAR if the
+ * Pade denominator is singular (only for |M| near the double range). */
+int ffx_lti_expm(int n, const double *M, double *E, double *work);
+
+/* Doubles of workspace the maps of model m need (ffx_lti_maps_init). */
+size_t ffx_lti_maps_work_len(const ffx_lti_model *m);
+
+/* Point ``maps`` at model m (checked, ffx_lti_check_model) and at ``work`` (work_len doubles, at least
+ * ffx_lti_maps_work_len(m)); no maps valid yet.  FFX_LTI_BAD_ARGUMENT if the model is inconsistent or the
+ * workspace too small. */
+int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len);
+
+/* Forget the cached maps (the next step and outputs recompute them). */
+void ffx_lti_maps_invalidate(ffx_lti_maps *maps);
+
+/* Make Ad, Bd, bd those of step h (s, finite, >= 0) and parameters p (np): recomputed (expm of the augmented
+ * matrix M = [[A B b]; [0 0 0]] h, E = expm(M): Ad = E[:nx, :nx], Bd = E[:nx, nx:nx+nu], bd = E[:nx, nx+nu])
+ * only when h or any p[i] differs (!=) from the cached ones (a NaN never equals: recomputed, and fails).
+ * FFX_LTI_NONFINITE if the maps are not finite (p or h too large), FFX_LTI_BAD_ARGUMENT for h.  On failure the
+ * step maps are invalid. */
+int ffx_lti_update_step_maps(ffx_lti_maps *maps, const double *p, double h);
+
+/* Make Cx, Cu, y0 (and z's monomials) those of p: recomputed only when p differs from the cached one.
+ * FFX_LTI_NONFINITE if not finite; on failure invalid. */
+int ffx_lti_update_output_maps(ffx_lti_maps *maps, const double *p);
+
+/* One exact zero-order-hold step: x_next = Ad x + Bd u + bd with the maps of (p, h) (updated as needed).
+ * x_next may alias x; it is written only on FFX_LTI_OK (a failed step leaves it as it was). */
+int ffx_lti_step(ffx_lti_maps *maps, const double *p, double h, const double *x, const double *u, double *x_next);
+
+/* n >= 0 such steps with the same p, h and u (a communication step in n internal steps, or a benchmark loop);
+ * x_next is written only if all n are finite. */
+int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const double *x, const double *u,
+                  double *x_next);
+
+/* y (ny) = Cx x + Cu u + y0 + the quadratic terms, with the output maps of p (updated as needed).  y is
+ * written in any case; FFX_LTI_NONFINITE if an output is not finite. */
+int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y);
+
+/* A static English description of a return code. */
+const char *ffx_lti_status_string(int status);
+
+#endif

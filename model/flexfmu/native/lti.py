@@ -1,0 +1,805 @@
+# Over 500 lines on purpose: the model's arrays, their extraction from the two simulators' maps (one probe each) and
+# the ctypes bindings all follow the one layout of csrc/lti_kernels.h, which this module mirrors.
+"""A clamped flexible body on a moving base as the parameter-dependent linear system of csrc/lti_kernels.h, with its
+coefficients taken from the library's own maps, and the C kernel through ctypes.
+
+    x' = A(p) x + B(p) u + b(p),     y = Cx(p) x + Cu(p) u + y0(p) + sum_k v_k z[i_k] z[j_k] e_{r_k},
+    z = [x; u; mono(p)],  mono(p) = [1, p_1 .. p_np, p_i p_j (i <= j)]
+
+Every matrix is a polynomial of degree <= 2 in the held parameters p (the damping ratio, the base's angular velocity
+and acceleration, and with geometric stiffening its acceleration too): A(p) = sum_k mono_k(p) A[k].  The
+coefficients are not written down a second time here: :meth:`LtiModel.from_ffrbeam` and
+:meth:`LtiModel.from_clamped_body` evaluate the library's maps (FFRBeamSimulator's step and output maps,
+FFRBeamDynamics.system_matrix and modal_force; ClampedDynamics.system_matrix and modal_force and the clamped
+simulator's outputs) at p = 0, p = a_i e_i, b_i e_i and a_i e_i + a_j e_j (a_i = -b_i = BASE_OFFSET for the base
+motion; for the damping ratio a = 1/4, b = 1/2, inside its range), which determines a quadratic exactly up to
+rounding; the output terms quadratic in (x, u) (the strain energy, the load's moment arm, ...) come from second
+differences of the simulator's outputs at unit x and u, differences below their rounding (64 eps of the values
+differenced) taken as zero.  Each constructor then checks the result against the library at random (x, u, p) and
+refuses a model whose maps are not of this form (ContractError; ``fit_error`` holds the largest relative differences
+it measured, ~1e-15 for FFRBeam and the clamped bodies of tests/test_native_lti.py).
+
+The strain energy of FFRBeam's static correction, 1/2 X_ab^T R X_ab with X = [alpha]x + [omega]x^2, is of degree 4
+in p: it is carried as terms mono_a mono_b of the quadratic output part (z holds mono(p) for that).
+
+The step is the exact zero-order hold (expm of the augmented matrix, csrc/lti_kernels.c); FFRBeam's integrator "rk4"
+has no native form (ParameterError naming ``integrator``).
+"""
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError
+from flexfmu.native.compiler import CSRC, load_kernels
+
+SOURCES = (CSRC / "lti_kernels.c",)
+OK, NONFINITE, SINGULAR, BAD_ARGUMENT = 0, 1, 2, 3
+AXES = ("x", "y", "z")
+_BASE_W = tuple(f"base_w_{a}" for a in AXES)
+_BASE_DW = tuple(f"base_dw_{a}" for a in AXES)
+_BASE_A = tuple(f"base_a_{a}" for a in AXES)
+#: a constructor refuses a model whose coefficients reproduce the library's maps worse than this (relative)
+FIT_TOLERANCE = 1e-9
+#: sample offsets of the base motion (rad/s, rad/s^2, m/s^2): large enough that the p-dependent part is not lost to
+#: the rounding of the modal stiffness (the coefficients err by ~eps |Lambda| / offset^2), a power of 2
+BASE_OFFSET = 16.0
+_EPS = np.finfo(float).eps
+
+
+class ContractError(FlexfmuError):
+    """The library's maps are not polynomials of degree <= 2 in the held parameters (lti_kernels.h's contract)."""
+
+
+# ---------------------------------------------------------------------------------------------- monomials
+def n_monomials(n_p: int) -> int:
+    return 1 + n_p + n_p * (n_p + 1) // 2
+
+
+def monomial_pairs(n_p: int) -> list[tuple[int, int]]:
+    """(i, j), i <= j, of the degree-2 monomials in their order (after 1 and p_0 .. p_{np-1})."""
+    return [(i, j) for i in range(n_p) for j in range(i, n_p)]
+
+
+def monomials(p) -> np.ndarray:
+    """mono(p) in the order of lti_kernels.h."""
+    p = np.asarray(p, dtype=float)
+    n = p.size
+    return np.concatenate([[1.0], p, [p[i] * p[j] for i, j in monomial_pairs(n)]])
+
+
+def monomial_names(names) -> tuple[str, ...]:
+    return ("1", *names, *(f"{names[i]}*{names[j]}" for i, j in monomial_pairs(len(names))))
+
+
+# ---------------------------------------------------------------------------------------------- the model
+@dataclass
+class LtiModel:
+    """The arrays of ffx_lti_model (shapes there) and what the FMU needs around them: the names of the FMU's
+    inputs, of the held parameters p and of the outputs; ``u_from_input`` (nu) the FMU input behind each u_k;
+    ``p_from_input`` (np) the FMU input behind each p_k, or -1 for a parameter (named in ``param_names``, value
+    ``p_start``).  ``fit_error``: the largest relative differences from the library measured at construction."""
+
+    A: np.ndarray
+    B: np.ndarray
+    b: np.ndarray
+    Cx: np.ndarray
+    Cu: np.ndarray
+    y0: np.ndarray
+    quad_row: np.ndarray
+    quad_i: np.ndarray
+    quad_j: np.ndarray
+    quad_value: np.ndarray
+    input_names: tuple
+    param_names: tuple
+    output_names: tuple
+    u_from_input: np.ndarray
+    p_from_input: np.ndarray
+    p_start: np.ndarray
+    kind: str = ""
+    fit_error: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)        # noqa: E731
+        i32 = lambda a: np.ascontiguousarray(a, dtype=np.int32)          # noqa: E731
+        for name in ("A", "B", "b", "Cx", "Cu", "y0", "quad_value", "p_start"):
+            setattr(self, name, f64(getattr(self, name)))
+        for name in ("quad_row", "quad_i", "quad_j", "u_from_input", "p_from_input"):
+            setattr(self, name, i32(getattr(self, name)))
+        self.input_names, self.param_names = tuple(self.input_names), tuple(self.param_names)
+        self.output_names = tuple(self.output_names)
+        nm, nx, nu, ny, n_p = self.nmono, self.nx, self.nu, self.ny, self.np
+        shapes = {"A": (nm, nx, nx), "B": (nm, nx, nu), "b": (nm, nx), "Cx": (nm, ny, nx), "Cu": (nm, ny, nu),
+                  "y0": (nm, ny), "p_start": (n_p,), "u_from_input": (nu,), "p_from_input": (n_p,)}
+        for name, shape in shapes.items():
+            if getattr(self, name).shape != shape:
+                raise ParameterError(name, f"shape {getattr(self, name).shape}", f"{shape}")
+        nq = self.quad_value.size
+        if any(getattr(self, n).shape != (nq,) for n in ("quad_row", "quad_i", "quad_j")):
+            raise ParameterError("quad_row", "quadratic-term arrays of different lengths", f"{nq} each")
+        nz = nx + nu + nm
+        if nq and (self.quad_row.min() < 0 or self.quad_row.max() >= ny or min(self.quad_i.min(), self.quad_j.min()) < 0
+                   or max(self.quad_i.max(), self.quad_j.max()) >= nz):
+            raise ParameterError("quad_i", "an index out of range", f"rows < {ny}, z indices < {nz}")
+        if len(self.output_names) != ny:
+            raise ParameterError("output_names", f"{len(self.output_names)} names", f"{ny}")
+
+    # ---- sizes
+    @property
+    def nx(self) -> int:
+        return int(self.A.shape[1])
+
+    @property
+    def nu(self) -> int:
+        return int(self.B.shape[2])
+
+    @property
+    def ny(self) -> int:
+        return int(self.y0.shape[1])
+
+    @property
+    def np(self) -> int:
+        return int(self.p_start.size)
+
+    @property
+    def nmono(self) -> int:
+        return int(self.A.shape[0])
+
+    @property
+    def nquad(self) -> int:
+        return int(self.quad_value.size)
+
+    @property
+    def u_names(self) -> tuple:
+        return tuple(self.input_names[k] for k in self.u_from_input)
+
+    # ---- the arrays of the model file (flexfmu.native's model file is written elsewhere)
+    def arrays(self) -> dict:
+        """name -> numpy array: the float64 / int32 arrays of ffx_lti_model and of the input map, and the sizes
+        (nx, nu, ny, np, nmono, nquad) as 0-d int32 arrays."""
+        out = {name: getattr(self, name) for name in ("A", "B", "b", "Cx", "Cu", "y0", "quad_row", "quad_i", "quad_j",
+                                                      "quad_value", "u_from_input", "p_from_input", "p_start")}
+        out.update({name: np.array(getattr(self, name), dtype=np.int32)
+                    for name in ("nx", "nu", "ny", "np", "nmono", "nquad")})
+        return out
+
+    def names(self) -> dict:
+        return {"input_names": self.input_names, "param_names": self.param_names, "output_names": self.output_names}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict, names: dict, kind: str = "") -> "LtiModel":
+        """The inverse of :meth:`arrays` and :meth:`names`."""
+        keys = ("A", "B", "b", "Cx", "Cu", "y0", "quad_row", "quad_i", "quad_j", "quad_value", "u_from_input",
+                "p_from_input", "p_start")
+        model = cls(**{k: np.asarray(arrays[k]) for k in keys}, **{k: tuple(names[k]) for k in
+                                                                    ("input_names", "param_names", "output_names")},
+                    kind=kind)
+        for k in ("nx", "nu", "ny", "np", "nmono", "nquad"):
+            if k in arrays and int(arrays[k]) != getattr(model, k):
+                raise ParameterError(k, f"{int(arrays[k])}", f"{getattr(model, k)} (the arrays' size)")
+        return model
+
+    # ---- numpy evaluation (the reference the C kernel is tested against, and the extraction's check)
+    def split_inputs(self, values, params=None) -> tuple[np.ndarray, np.ndarray]:
+        """(u, p) of the FMU input vector ``values``; the parameter-fed p from ``params`` {name: value} (default
+        p_start)."""
+        v = np.asarray(values, dtype=float)
+        u = v[self.u_from_input]
+        p = self.p_start.copy()
+        fed = self.p_from_input >= 0
+        p[fed] = v[self.p_from_input[fed]]
+        for k, name in enumerate(self.param_names):
+            if not fed[k] and params and name in params:
+                p[k] = float(params[name])
+        return u, p
+
+    def dynamics(self, p):
+        """A (nx, nx), B (nx, nu), b (nx) for p."""
+        m = monomials(p)
+        return (np.tensordot(m, self.A, axes=1), np.tensordot(m, self.B, axes=1), np.tensordot(m, self.b, axes=1))
+
+    def output_maps(self, p):
+        """Cx, Cu, y0 for p (the quadratic terms not included)."""
+        m = monomials(p)
+        return (np.tensordot(m, self.Cx, axes=1), np.tensordot(m, self.Cu, axes=1), np.tensordot(m, self.y0, axes=1))
+
+    def quadratic(self, x, u, p) -> np.ndarray:
+        z = np.concatenate([np.asarray(x, float), np.asarray(u, float), monomials(p)])
+        y = np.zeros(self.ny)
+        np.add.at(y, self.quad_row, self.quad_value * z[self.quad_i] * z[self.quad_j])
+        return y
+
+    def outputs(self, x, u, p) -> np.ndarray:
+        Cx, Cu, y0 = self.output_maps(p)
+        return Cx @ x + Cu @ u + y0 + self.quadratic(x, u, p)
+
+    def kernel(self) -> "LtiKernel":
+        return LtiKernel(self)
+
+    # ---- constructors from the library's simulators
+    @classmethod
+    def from_ffrbeam(cls, simulator) -> "LtiModel":
+        """The model of an FFRBeamSimulator (flexfmu.ffr.simulator): x = [eta; eta_dot], u = [F, M, base_a] (body
+        frame, at load_s), p = (damping_ratio, base_w, base_dw) and with geometric stiffening also base_a; outputs
+        OUTPUT_NAMES (all 25, with the static correction when the simulator has one).  Integrator "exact" only."""
+        return _from_ffrbeam(simulator)
+
+    @classmethod
+    def from_clamped_body(cls, simulator) -> "LtiModel":
+        """The model of a clamped body's FlexBodySimulator (flexfmu.body.simulator): x = [eta; eta_d], u = the
+        interface loads and base_a, p = (damping_ratio, base_w, base_dw); outputs the simulator's output_names."""
+        return _from_clamped_body(simulator)
+
+
+# ---------------------------------------------------------------------------------------------- extraction
+@dataclass
+class _Probe:
+    """What the extraction evaluates: the library's maps at p and its outputs at (x, FMU inputs, p)."""
+
+    model_kind: str
+    input_names: tuple
+    param_names: tuple
+    output_names: tuple
+    u_from_input: np.ndarray
+    p_from_input: np.ndarray
+    p_start: np.ndarray
+    #: p -> (A, B, b) of the library
+    dynamics: object
+    #: p -> (Cx, Cu, y0) of the library, without the mono-mono terms
+    output_maps: object
+    #: (x, FMU input vector, p) -> y of the library (p's inputs taken from the vector, the parameters from p)
+    outputs: object
+    #: sample offsets (a_i, b_i) along each p axis
+    offsets: list
+    #: per output row None or V (nmono, nmono): a known term mono(p)^T V mono(p) of degree 4 in p, not in y0(p)
+    mono_quadratic: object = None
+
+
+def _samples(offsets):
+    """The sample points of p: 0, a_i e_i, b_i e_i, a_i e_i + a_j e_j (i < j)."""
+    n = len(offsets)
+    pts = [np.zeros(n)]
+    for i, (a, b) in enumerate(offsets):
+        for s in (a, b):
+            q = np.zeros(n)
+            q[i] = s
+            pts.append(q)
+    for i in range(n):
+        for j in range(i + 1, n):
+            q = np.zeros(n)
+            q[i], q[j] = offsets[i][0], offsets[j][0]
+            pts.append(q)
+    return pts
+
+
+def _fit(values, offsets) -> np.ndarray:
+    """Coefficients (nmono, ...) of the quadratic that takes ``values`` (in the order of _samples) at the sample
+    points: along each axis from f(0), f(a), f(b) (the 2x2 system solved in closed form); the mixed ones from
+    f(a_i e_i + a_j e_j) - f(a_i e_i) - f(a_j e_j) + f(0) = c_ij a_i a_j."""
+    n = len(offsets)
+    f0 = values[0]
+    lin, sq = [], []
+    fa = {}
+    for i, (a, b) in enumerate(offsets):
+        va, vb = values[1 + 2 * i] - f0, values[2 + 2 * i] - f0
+        fa[i] = values[1 + 2 * i]
+        # c a + d a^2 = va, c b + d b^2 = vb
+        d = (vb * a - va * b) / (a * b * (b - a))
+        c = (va * b * b - vb * a * a) / (a * b * (b - a))
+        lin.append(c)
+        sq.append(d)
+    mixed = {}
+    k = 1 + 2 * n
+    for i in range(n):
+        for j in range(i + 1, n):
+            mixed[i, j] = (values[k] - fa[i] - fa[j] + f0) / (offsets[i][0] * offsets[j][0])
+            k += 1
+    out = [f0, *lin]
+    for i, j in monomial_pairs(n):
+        out.append(sq[i] if i == j else mixed[i, j])
+    return np.array(out)
+
+
+def _inputs_of(probe: _Probe, u, p) -> np.ndarray:
+    """The FMU input vector with u and the input-fed p; where both feed one input (base_a with geometric
+    stiffening) u's value wins (the callers keep them equal)."""
+    v = np.zeros(len(probe.input_names))
+    fed = probe.p_from_input >= 0
+    v[probe.p_from_input[fed]] = np.asarray(p, float)[fed]
+    v[probe.u_from_input] = u
+    return v
+
+
+def _p_of(probe: _Probe, v, p_params) -> np.ndarray:
+    p = np.array(p_params, dtype=float)
+    fed = probe.p_from_input >= 0
+    p[fed] = v[probe.p_from_input[fed]]
+    return p
+
+
+def _extract(probe: _Probe, rng_seed: int = 20261121) -> LtiModel:
+    n_p = len(probe.param_names)
+    nmono = n_monomials(n_p)
+    pts = _samples(probe.offsets)
+    dyn = [probe.dynamics(p) for p in pts]
+    outs = [probe.output_maps(p) for p in pts]
+    A, B, b = (_fit(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
+    Cx, Cu, y0 = (_fit(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
+    nx, nu, ny = A.shape[1], B.shape[2], y0.shape[1]
+
+    mono_terms = []                                   # (row, a, b, v) over mono indices
+    if probe.mono_quadratic is not None:
+        V = probe.mono_quadratic
+        for r in range(ny):
+            if V[r] is None:
+                continue
+            for a in range(nmono):
+                for c in range(a, nmono):
+                    v = V[r][a, a] if a == c else V[r][a, c] + V[r][c, a]
+                    if v != 0.0:
+                        mono_terms.append((r, nx + nu + a, nx + nu + c, v))
+
+    def linear_part(x, u, p):
+        m = monomials(p)
+        y = (np.tensordot(m, Cx, axes=1) @ x + np.tensordot(m, Cu, axes=1) @ u + np.tensordot(m, y0, axes=1))
+        if mono_terms:
+            z = np.concatenate([x, u, m])
+            for r, i, j, v in mono_terms:
+                y[r] += v * z[i] * z[j]
+        return y
+
+    # terms quadratic in (x, u): second differences of what the library's outputs add to the maps, at the
+    # parameters' start values (p's inputs at 0 unless u moves them)
+    n = nx + nu
+    p_par = probe.p_start
+
+    def residual(w):
+        x, u = w[:nx], w[nx:]
+        v = _inputs_of(probe, u, np.where(probe.p_from_input >= 0, 0.0, p_par))
+        p = _p_of(probe, v, p_par)
+        y = probe.outputs(x, v, p)
+        lin = linear_part(x, u, p)
+        return y - lin, np.abs(y) + np.abs(lin)
+
+    zero = np.zeros(n)
+    r0, s0 = residual(zero)
+    plus, minus = {}, {}
+    for a in range(n):
+        e = np.zeros(n)
+        e[a] = 1.0
+        plus[a] = residual(e)
+        minus[a] = residual(-e)
+    quads = []
+    for a in range(n):
+        for c in range(a, n):
+            if a == c:
+                d = 0.5 * (plus[a][0] + minus[a][0] - 2.0 * r0)
+                scale = plus[a][1] + minus[a][1] + 2.0 * s0
+            else:
+                e = np.zeros(n)
+                e[a] = e[c] = 1.0
+                rac, sac = residual(e)
+                d = rac - plus[a][0] - plus[c][0] + r0
+                scale = sac + plus[a][1] + plus[c][1] + s0
+            keep = np.abs(d) > 64.0 * _EPS * scale          # above the rounding of the differences
+            for r in np.flatnonzero(keep):
+                quads.append((int(r), a, c, float(d[r])))
+    quads += mono_terms
+    quads.sort(key=lambda q: (q[0], q[1], q[2]))
+    q = np.array(quads, dtype=float).reshape(-1, 4)
+    model = LtiModel(A=A, B=B, b=b, Cx=Cx, Cu=Cu, y0=y0, quad_row=q[:, 0], quad_i=q[:, 1], quad_j=q[:, 2],
+                     quad_value=q[:, 3], input_names=probe.input_names, param_names=probe.param_names,
+                     output_names=probe.output_names, u_from_input=probe.u_from_input,
+                     p_from_input=probe.p_from_input, p_start=probe.p_start, kind=probe.model_kind)
+    model.fit_error = _check(model, probe, np.random.default_rng(rng_seed))
+    worst = max(model.fit_error.values())
+    if not worst <= FIT_TOLERANCE:
+        raise ContractError(f"the {probe.model_kind} maps are not reproduced by polynomials of degree 2 in "
+                            f"{', '.join(probe.param_names)} (relative differences {model.fit_error}): "
+                            "flexfmu.native.lti's contract does not hold for this model")
+    return model
+
+
+def _rel(a, b) -> float:
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    scale = max(float(np.max(np.abs(b), initial=0.0)), 1e-300)
+    return float(np.max(np.abs(a - b), initial=0.0)) / scale
+
+
+def _check(model: LtiModel, probe: _Probe, rng) -> dict:
+    """Largest relative differences (per matrix, relative to its largest entry; outputs per row) between the model
+    and the library at random p (base rotation up to ~ 3 rad/s, 10 rad/s^2, damping in [0, 0.5)) and (x, u)."""
+    err = {"A": 0.0, "B": 0.0, "b": 0.0, "outputs": 0.0}
+    for _ in range(3):
+        p = np.array([rng.uniform(0.0, 0.5) if name == "damping_ratio" else
+                      rng.uniform(-3.0, 3.0) if name.startswith("base_w") else rng.uniform(-10.0, 10.0)
+                      for name in probe.param_names])
+        for name, mine, lib in zip(("A", "B", "b"), model.dynamics(p), probe.dynamics(p)):
+            err[name] = max(err[name], _rel(mine, lib))
+        x = rng.standard_normal(model.nx) * 1e-3
+        u = rng.standard_normal(model.nu)
+        v = _inputs_of(probe, u, p)
+        p = _p_of(probe, v, p)                          # base_a: u's (as the FMU feeds both)
+        y_lib = probe.outputs(x, v, p)
+        y = model.outputs(x, u, p)
+        # per output, relative to that output's size over the parts that make it up
+        Cx, Cu, y0 = model.output_maps(p)
+        scale = np.abs(Cx) @ np.abs(x) + np.abs(Cu) @ np.abs(u) + np.abs(y0) + np.abs(model.quadratic(x, u, p))
+        scale = np.maximum(scale, np.abs(y_lib))
+        ok = scale > 0
+        if np.any(ok):
+            err["outputs"] = max(err["outputs"], float(np.max(np.abs(y - y_lib)[ok] / scale[ok])))
+    return err
+
+
+# ---------------------------------------------------------------------------------------------- FFRBeam
+def _from_ffrbeam(sim) -> LtiModel:
+    from flexfmu.ffr.dynamics import BaseMotion
+    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES, FFRBeamSimulator
+
+    dyn0 = sim.dynamics
+    if dyn0.integrator != "exact":
+        raise ParameterError("integrator", f"got {dyn0.integrator!r}: the native kernel advances only the exact "
+                                           "zero-order hold", "exact")
+    gs = bool(dyn0.geometric_stiffening)
+    index = {name: k for k, name in enumerate(INPUT_NAMES)}
+    param_names = ("damping_ratio", *_BASE_W, *_BASE_DW, *(_BASE_A if gs else ()))
+    p_from_input = np.array([-1] + [index[n] for n in param_names[1:]])
+    u_from_input = np.arange(9)
+    p_start = np.zeros(len(param_names))
+    p_start[0] = dyn0.damping_ratio
+    m = dyn0.m
+    copies = {}
+
+    def at(zeta: float):
+        zeta = float(zeta)
+        if zeta not in copies:
+            copies[zeta] = sim.with_damping(zeta)
+        return copies[zeta]
+
+    def base_of(p, a0=None):
+        p = np.asarray(p, float)
+        if a0 is None:
+            a0 = p[7:10] if gs else np.zeros(3)
+        return BaseMotion(a0=np.array(a0, float), omega=p[1:4].copy(), alpha=p[4:7].copy())
+
+    def dynamics(p):
+        d = at(p[0]).dynamics
+        A = d.system_matrix(base_of(p))
+        zero = np.zeros(3)
+        f0 = d.modal_force(zero, zero, base_of(p, zero))          # K_eff's a0 is p's, the load's a0 is u's
+        B = np.zeros((2 * m, 9))
+        b = np.zeros(2 * m)
+        b[m:] = f0
+        for j in range(9):
+            e = np.zeros(9)
+            e[j] = 1.0
+            B[m:, j] = d.modal_force(e[0:3], e[3:6], base_of(p, e[6:9])) - f0
+        return A, B, b
+
+    def output_maps(p):
+        s = at(p[0])
+        s.set_input_vector(_inputs_of(probe, np.r_[np.zeros(6), p[7:10] if gs else np.zeros(3)], p))
+        maps = s._maps(None)
+        Cu = maps.Cu.copy()
+        if maps.energy is not None:
+            Cu[-1] += maps.energy[1]          # the static correction's energy: u-linear part (the u-u part: quads)
+        return maps.Cx.copy(), Cu, maps.y0.copy()
+
+    def outputs(x, v, p):
+        from flexfmu.ffr.dynamics import ModalState
+        s = at(p[0])
+        s.set_input_vector(v)
+        s.state = ModalState(np.array(x[:m], float), np.array(x[m:], float), 0.0)
+        return s.output_vector().copy()
+
+    mono_quadratic = None
+    n_p = len(param_names)
+    offsets = [(0.25, 0.5)] + [(BASE_OFFSET, -BASE_OFFSET)] * (n_p - 1)
+    if sim.static_correction is not None:
+        # 1/2 X_ab^T R X_ab (R: the correction's energy matrix on the rotation patterns) with X_ab = T mono(p):
+        # T fitted from the library's X_ab (FFRBeamSimulator.static_correction_weights)
+        pts = _samples(offsets)
+        T = _fit(np.array([FFRBeamSimulator.static_correction_weights(base_of(p)) for p in pts]), offsets).T
+        R = np.asarray(sim.static_correction.energy, float)[9:, 9:]
+        V = [None] * len(OUTPUT_NAMES)
+        V[OUTPUT_NAMES.index("elastic_energy")] = 0.5 * T.T @ R @ T
+        mono_quadratic = V
+
+    probe = _Probe("FFRBeam", INPUT_NAMES, param_names, OUTPUT_NAMES, u_from_input, p_from_input, p_start,
+                   dynamics, output_maps, outputs, offsets, mono_quadratic)
+    return _extract(probe)
+
+
+# ---------------------------------------------------------------------------------------------- clamped body
+def _from_clamped_body(sim) -> LtiModel:
+    from flexfmu.body.simulator import FlexBodySimulator
+
+    body = sim.body
+    if body.kind != "clamped":
+        raise ParameterError("body", f"a {body.kind} body", "a clamped body (flexfmu.body: build_body(clamp=...))")
+    names = tuple(sim.input_names)
+    index = {name: k for k, name in enumerate(names)}
+    param_names = ("damping_ratio", *_BASE_W, *_BASE_DW)
+    p_from_input = np.array([-1] + [index[n] for n in param_names[1:]])
+    u_from_input = np.array([k for k, n in enumerate(names) if n not in param_names])
+    zeta0 = float(sim.engine.dyn.zeta)
+    p_start = np.zeros(len(param_names))
+    p_start[0] = zeta0
+    m = sim.engine.dyn.m
+    copies = {}
+
+    def at(zeta: float):
+        zeta = float(zeta)
+        if zeta not in copies:
+            copies[zeta] = FlexBodySimulator(body, dataclasses.replace(sim.config, damping_ratio=zeta))
+        return copies[zeta]
+
+    def dynamics(p):
+        s = at(p[0])
+        e = s.engine
+        d = e.dyn
+        v = _inputs_of(probe, np.zeros(len(u_from_input)), p)
+        s.set_input_vector(v)
+        A = d.system_matrix(e.w, e.alpha)
+        f0 = d.modal_force(e.loads, e.a0, e.w, e.alpha)
+        B = np.zeros((2 * m, len(u_from_input)))
+        b = np.zeros(2 * m)
+        b[m:] = f0
+        for j in range(len(u_from_input)):
+            u = np.zeros(len(u_from_input))
+            u[j] = 1.0
+            s.set_input_vector(_inputs_of(probe, u, p))
+            B[m:, j] = d.modal_force(e.loads, e.a0, e.w, e.alpha) - f0
+        return A, B, b
+
+    def outputs(x, v, p):
+        s = at(p[0])
+        state = s.get_state()
+        state["x"] = np.asarray(x, float).tolist()
+        state["inputs"] = dict(zip(names, np.asarray(v, float).tolist()))
+        s.set_state(state)
+        return s.output_vector().copy()
+
+    def output_maps(p):
+        """Central differences of the outputs in x (u = 0) and in u (x = 0): exact for outputs affine in each
+        (terms quadratic in x or in u cancel, those in x and u vanish)."""
+        nx, nu = 2 * m, len(u_from_input)
+        v0 = _inputs_of(probe, np.zeros(nu), p)
+        zx = np.zeros(nx)
+        y0 = outputs(zx, v0, p)
+        Cx = np.zeros((y0.size, nx))
+        Cu = np.zeros((y0.size, nu))
+        for a in range(nx):
+            e = np.zeros(nx)
+            e[a] = 1.0
+            Cx[:, a] = 0.5 * (outputs(e, v0, p) - outputs(-e, v0, p))
+        for j in range(nu):
+            e = np.zeros(nu)
+            e[j] = 1.0
+            Cu[:, j] = 0.5 * (outputs(zx, _inputs_of(probe, e, p), p) - outputs(zx, _inputs_of(probe, -e, p), p))
+        return Cx, Cu, y0
+
+    offsets = [(0.25, 0.5)] + [(BASE_OFFSET, -BASE_OFFSET)] * (len(param_names) - 1)
+    probe = _Probe("clamped body", names, param_names, tuple(sim.output_names), u_from_input, p_from_input, p_start,
+                   dynamics, output_maps, outputs, offsets, None)
+    return _extract(probe)
+
+
+# ---------------------------------------------------------------------------------------------- ctypes
+_dp = ctypes.POINTER(ctypes.c_double)
+_ip = ctypes.POINTER(ctypes.c_int)
+
+
+class _Model(ctypes.Structure):
+    _fields_ = [("nx", ctypes.c_int), ("nu", ctypes.c_int), ("ny", ctypes.c_int), ("np", ctypes.c_int),
+                ("nmono", ctypes.c_int), ("A", _dp), ("B", _dp), ("b", _dp), ("Cx", _dp), ("Cu", _dp), ("y0", _dp),
+                ("nquad", ctypes.c_int), ("quad_row", _ip), ("quad_i", _ip), ("quad_j", _ip), ("quad_value", _dp)]
+
+
+class _Maps(ctypes.Structure):
+    _fields_ = [("model", ctypes.POINTER(_Model)), ("step_valid", ctypes.c_int), ("output_valid", ctypes.c_int),
+                ("h", ctypes.c_double), ("p_step", _dp), ("p_output", _dp), ("Ad", _dp), ("Bd", _dp), ("bd", _dp),
+                ("Cx", _dp), ("Cu", _dp), ("y0", _dp), ("z", _dp), ("mono", _dp), ("x_new", _dp), ("aug", _dp),
+                ("expm_work", _dp), ("n_step_updates", ctypes.c_long), ("n_output_updates", ctypes.c_long)]
+
+
+def library() -> ctypes.CDLL:
+    """The compiled lti kernels (flexfmu.native.compiler: cached per source digest), prototypes declared; pointer
+    arguments as void * (pass array addresses as ints on the per-step path: ~1 us a call)."""
+    lib = load_kernels("lti", SOURCES)
+    if not getattr(lib, "_ffx_lti_declared", False):
+        c_int, c_double, c_size, c_long, vp = (ctypes.c_int, ctypes.c_double, ctypes.c_size_t, ctypes.c_long,
+                                               ctypes.c_void_p)
+        for name, res, args in (
+                ("ffx_lti_check_model", c_int, [vp]),
+                ("ffx_lti_monomials", None, [c_int, vp, vp]),
+                ("ffx_lti_assemble_dynamics", None, [vp, vp, vp, vp, vp]),
+                ("ffx_lti_assemble_outputs", None, [vp, vp, vp, vp, vp]),
+                ("ffx_lti_expm_work_len", c_size, [c_int]),
+                ("ffx_lti_expm", c_int, [c_int, vp, vp, vp]),
+                ("ffx_lti_maps_work_len", c_size, [vp]),
+                ("ffx_lti_maps_init", c_int, [vp, vp, vp, c_size]),
+                ("ffx_lti_maps_invalidate", None, [vp]),
+                ("ffx_lti_update_step_maps", c_int, [vp, vp, c_double]),
+                ("ffx_lti_update_output_maps", c_int, [vp, vp]),
+                ("ffx_lti_step", c_int, [vp, vp, c_double, vp, vp, vp]),
+                ("ffx_lti_steps", c_int, [vp, vp, c_double, c_long, vp, vp, vp]),
+                ("ffx_lti_outputs", c_int, [vp, vp, vp, vp, vp]),
+                ("ffx_lti_status_string", ctypes.c_char_p, [c_int])):
+            f = getattr(lib, name)
+            f.restype, f.argtypes = res, args
+        lib._ffx_lti_declared = True
+    return lib
+
+
+def _ptr(a: np.ndarray, kind=_dp):
+    return a.ctypes.data_as(kind)
+
+
+def expm(M) -> np.ndarray:
+    """The C kernel's matrix exponential (ffx_lti_expm) of a square matrix."""
+    lib = library()
+    M = np.ascontiguousarray(M, dtype=np.float64)
+    n = M.shape[0]
+    if M.ndim != 2 or M.shape != (n, n):
+        raise ParameterError("M", f"shape {M.shape}", "square")
+    E = np.empty_like(M)
+    work = np.empty(max(1, lib.ffx_lti_expm_work_len(n)))
+    status = lib.ffx_lti_expm(n, M.ctypes.data, E.ctypes.data, work.ctypes.data)
+    if status != OK:
+        raise NonFiniteError("M", f"expm: {lib.ffx_lti_status_string(status).decode()}")
+    return E
+
+
+class LtiKernel:
+    """The C step and outputs of an LtiModel, the maps cached in the kernel for the last (p, h).  Arguments are
+    copied into buffers the C side reads (``x``, ``u``, ``p``), so a call costs a few microseconds."""
+
+    def __init__(self, model: LtiModel):
+        self.model = model
+        self.lib = lib = library()
+        self._arrays = model.arrays()                   # kept alive: the struct points into them
+        a = self._arrays
+        self._model = _Model(model.nx, model.nu, model.ny, model.np, model.nmono, _ptr(a["A"]), _ptr(a["B"]),
+                             _ptr(a["b"]), _ptr(a["Cx"]), _ptr(a["Cu"]), _ptr(a["y0"]), model.nquad,
+                             _ptr(a["quad_row"], _ip), _ptr(a["quad_i"], _ip), _ptr(a["quad_j"], _ip),
+                             _ptr(a["quad_value"]))
+        self._model_addr = ctypes.addressof(self._model)
+        if lib.ffx_lti_check_model(self._model_addr) != OK:
+            raise ParameterError("model", "inconsistent sizes or quadratic-term indices", "lti_kernels.h's layout")
+        n = lib.ffx_lti_maps_work_len(self._model_addr)
+        self._work = np.zeros(max(1, n))
+        self._maps = _Maps()
+        self._maps_addr = ctypes.addressof(self._maps)
+        status = lib.ffx_lti_maps_init(self._maps_addr, self._model_addr, self._work.ctypes.data, n)
+        if status != OK:
+            raise ParameterError("model", lib.ffx_lti_status_string(status).decode())
+        # argument buffers (at least one element: a valid address even when empty)
+        self.x, self.u, self.p = (np.zeros(max(1, k)) for k in (model.nx, model.nu, model.np))
+        self._x_next, self._y = np.zeros(max(1, model.nx)), np.zeros(max(1, model.ny))
+        self._ax, self._au, self._ap, self._axn, self._ay = (b.ctypes.data for b in (self.x, self.u, self.p,
+                                                                                     self._x_next, self._y))
+        self._step, self._outputs = lib.ffx_lti_steps, lib.ffx_lti_outputs
+        self._nx, self._ny = model.nx, model.ny
+
+    def _load(self, x, u, p) -> None:
+        m = self.model
+        for buf, value, n, name in ((self.x, x, m.nx, "x"), (self.u, u, m.nu, "u"), (self.p, p, m.np, "p")):
+            if value is None:
+                continue
+            if np.shape(value) != (n,):
+                raise ParameterError(name, f"shape {np.shape(value)}", f"({n},)")
+            buf[:n] = value
+
+    def _fail(self, status: int, what: str):
+        text = self.lib.ffx_lti_status_string(status).decode()
+        if status == BAD_ARGUMENT:
+            return ParameterError(what, text)
+        return NonFiniteError(what, text)
+
+    def step(self, x, u, p, h: float) -> np.ndarray:
+        """x after one exact step h with u and p held (x, u, p: arrays of nx, nu, np)."""
+        return self.steps(x, u, p, h, 1)
+
+    def steps(self, x, u, p, h: float, n: int) -> np.ndarray:
+        """x after n such steps."""
+        self._load(x, u, p)
+        status = self._step(self._maps_addr, self._ap, h, n, self._ax, self._au, self._axn)
+        if status != OK:
+            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
+        return self._x_next[:self._nx].copy()
+
+    def advance(self, h: float, n: int = 1) -> None:
+        """The buffers' x after n steps h with the buffers' u and p, in place (the per-step path of a simulator)."""
+        status = self._step(self._maps_addr, self._ap, h, n, self._ax, self._au, self._ax)
+        if status != OK:
+            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
+
+    def outputs(self, x=None, u=None, p=None) -> np.ndarray:
+        """y for (x, u, p); None: the buffer's value."""
+        if x is not None or u is not None or p is not None:
+            self._load(x, u, p)
+        status = self._outputs(self._maps_addr, self._ap, self._ax, self._au, self._ay)
+        if status != OK:
+            raise self._fail(status, "outputs")
+        return self._y[:self._ny].copy()
+
+    def step_maps(self, p, h: float):
+        """Copies of (Ad, Bd, bd) of (p, h)."""
+        m = self.model
+        self._load(None, None, p)
+        status = self.lib.ffx_lti_update_step_maps(self._maps_addr, self._ap, float(h))
+        if status != OK:
+            raise self._fail(status, "step maps")
+        mp = self._maps
+        view = lambda ptr, n: np.ctypeslib.as_array(ptr, shape=(n,)).copy()      # noqa: E731
+        return (view(mp.Ad, m.nx * m.nx).reshape(m.nx, m.nx), view(mp.Bd, m.nx * m.nu).reshape(m.nx, m.nu),
+                view(mp.bd, m.nx))
+
+    def invalidate(self) -> None:
+        self.lib.ffx_lti_maps_invalidate(self._maps_addr)
+
+    @property
+    def counters(self) -> tuple[int, int]:
+        """(step-map recomputations, output-map recomputations) so far."""
+        return int(self._maps.n_step_updates), int(self._maps.n_output_updates)
+
+
+class LtiSimulator:
+    """A minimal simulator of an LtiModel on the C kernel (FMU input vector in, outputs out): state x, time t,
+    the held inputs and the parameter-fed p (``set_parameter``, e.g. damping_ratio at run time)."""
+
+    def __init__(self, model: LtiModel):
+        self.model = model
+        self.kernel = model.kernel()
+        self.t = 0.0
+        self._v = np.zeros(len(model.input_names))
+        self._params = {n: float(model.p_start[k]) for k, n in enumerate(model.param_names)
+                        if model.p_from_input[k] < 0}
+        self._split()
+
+    def _split(self):
+        u, p = self.model.split_inputs(self._v, self._params)
+        self.kernel._load(None, u, p)
+
+    @property
+    def time(self) -> float:
+        return self.t
+
+    @property
+    def x(self) -> np.ndarray:
+        return self.kernel.x[:self.model.nx].copy()
+
+    @x.setter
+    def x(self, value) -> None:
+        self.kernel._load(value, None, None)
+
+    def set_parameter(self, name: str, value: float) -> None:
+        if name not in self._params:
+            raise ParameterError(name, "not a parameter of the native model", ", ".join(self._params))
+        if not math.isfinite(value):
+            raise NonFiniteError(name, f"{value!r}")
+        self._params[name] = float(value)
+        self._split()
+
+    def set_input_vector(self, values) -> None:
+        v = np.asarray(values, dtype=float)
+        if v.shape != self._v.shape:
+            raise ParameterError("inputs", f"{v.size} values", f"{self._v.size} values")
+        if not np.all(np.isfinite(v)):
+            raise NonFiniteError(self.model.input_names[int(np.flatnonzero(~np.isfinite(v))[0])], "not finite")
+        self._v = v.copy()
+        self._split()
+
+    def step(self, h: float) -> None:
+        """One exact step h; the state is unchanged on failure (NonFiniteError)."""
+        self.kernel.advance(h)
+        self.t += h
+
+    def output_vector(self) -> np.ndarray:
+        return self.kernel.outputs()

@@ -1,0 +1,417 @@
+"""The C kernel of a clamped flexible body on a moving base (flexfmu.native: csrc/lti_kernels.c through lti.py)
+against the library's Python simulators, whose maps its coefficients are taken from: FFRBeam (the paper's hammer
+record, random held base motion with and without geometric stiffening and static correction, the damping ratio
+changed at run time) and exported clamped bodies (flexfmu.body).  The C matrix exponential against scipy.linalg.expm
+and an extended-precision Taylor series."""
+import ctypes
+import dataclasses
+
+import numpy as np
+import pytest
+import scipy.linalg as sla
+
+from conftest import straight_rod
+from flexfmu.errors import NonFiniteError, ParameterError
+from flexfmu.native import lti
+from flexfmu.native.compiler import CompilerError
+
+try:
+    lti.library()
+except CompilerError as exc:                     # pragma: no cover - no C compiler on this machine
+    pytest.skip(f"no C compiler: {exc}", allow_module_level=True)
+
+RTOL = 1e-10                                      # C kernel against the Python simulators, per output
+#: the paper's hammer set-ups (examples/hammer_test.py): boundary -> (load_s, sensor_s)
+HAMMER = {"XFF": (0.45, 0.04), "FXF": (0.45, 0.30), "XFX": (0.30, 0.04)}
+
+
+def _relative_errors(mine, ref, groups=None):
+    """Per output: max over the record of |mine - ref| / max |ref|; an output that is zero all along is measured
+    against its vector's (``groups``: output -> group index) largest value."""
+    mine, ref = np.asarray(mine), np.asarray(ref)
+    scale = np.abs(ref).max(axis=0)
+    if groups is not None:
+        for g in set(groups):
+            members = [k for k, gk in enumerate(groups) if gk == g]
+            scale[members] = np.where(scale[members] > 0, scale[members], scale[members].max())
+    scale = np.where(scale > 0, scale, 1.0)
+    return np.abs(mine - ref).max(axis=0) / scale
+
+
+def _ffr_groups():
+    from flexfmu.ffr.simulator import OUTPUT_NAMES
+    return [k // 3 if k < 18 else 100 + k for k in range(len(OUTPUT_NAMES))]
+
+
+# ---------------------------------------------------------------------------------------------- expm
+def _expm_reference(M):
+    """exp(M) by a degree-40 Taylor series of M / 2^s (|M / 2^s|_1 <= 1/4) squared s times, in long double."""
+    A = M.astype(np.longdouble)
+    norm = float(np.abs(M).sum(axis=0).max())
+    s = max(0, int(np.ceil(np.log2(norm / 0.25)))) if norm > 0 else 0
+    A = A / np.longdouble(2.0) ** s
+    E = T = np.eye(M.shape[0], dtype=np.longdouble)
+    for k in range(1, 41):
+        T = T @ A / k
+        E = E + T
+    for _ in range(s):
+        E = E @ E
+    return E.astype(float)
+
+
+def _rel(a, b):
+    return float(np.abs(a - b).max() / np.abs(b).max())
+
+
+def test_expm_matches_scipy_and_an_extended_precision_reference(rng):
+    """Random dense, skew-symmetric (oscillatory) and damped-oscillatory matrices, 1-norms from 1e-3 to ~1e3:
+    within 1e-13 (relative to the largest entry) of the long-double reference, and of scipy.linalg.expm except
+    where scipy itself is further from the reference (dense matrices of a few rows, large norms: then within 1e-13
+    plus scipy's own error)."""
+    assert np.finfo(np.longdouble).eps < 1e-18, "the reference needs an extended long double"
+    worst = {"C vs reference": 0.0, "C vs scipy": 0.0, "scipy vs reference": 0.0}
+    for kind in ("dense", "skew", "damped"):
+        for n in (2, 3, 8, 22, 40):
+            for scale in (1e-3, 0.3, 1.0, 30.0, 1e2, 1e3):
+                if kind == "dense" and scale > 30:       # e^{|lambda|}: ill-conditioned, entries beyond 1e40
+                    continue
+                G = rng.standard_normal((n, n)) / np.sqrt(n)
+                M = {"dense": G * scale, "skew": 0.5 * (G - G.T) * scale,
+                     "damped": 0.5 * (G - G.T) * scale - 0.05 * scale * np.eye(n) + 0.01 * scale * G}[kind]
+                E, S, X = lti.expm(M), sla.expm(M), _expm_reference(M)
+                c_ref, c_scipy, scipy_ref = _rel(E, X), _rel(E, S), _rel(S, X)
+                assert c_ref <= 1e-13, (kind, n, scale, c_ref)
+                assert c_scipy <= 1e-13 + scipy_ref, (kind, n, scale, c_scipy, scipy_ref)
+                for k, v in zip(worst, (c_ref, c_scipy, scipy_ref)):
+                    worst[k] = max(worst[k], v)
+    print(f"\nexpm, worst relative differences: {worst}")
+    # sizes of the kernels' augmented matrices, norms up to 30: C and scipy agree to 1e-13 outright
+    for n in (8, 22, 40):
+        for scale in (1e-3, 1.0, 30.0):
+            M = rng.standard_normal((n, n)) / np.sqrt(n) * scale
+            assert _rel(lti.expm(M), sla.expm(M)) <= 1e-13
+
+
+def test_expm_of_zero_and_of_zero_rows_is_exact():
+    assert np.array_equal(lti.expm(np.zeros((4, 4))), np.eye(4))
+    M = np.zeros((5, 5))
+    M[:3] = np.random.default_rng(1).standard_normal((3, 5)) * 50     # many squarings
+    E = lti.expm(M)
+    assert np.array_equal(E[3:], np.eye(5)[3:])       # the augmented matrix's last rows: exactly those of I
+    assert _rel(E, _expm_reference(M)) <= 1e-13
+
+
+def test_expm_reports_non_finite():
+    with pytest.raises(NonFiniteError):
+        lti.expm(np.array([[np.nan, 0.0], [0.0, 1.0]]))
+    with pytest.raises(NonFiniteError):
+        lti.expm(np.array([[1e3, 1.0], [0.0, 1.0]]))      # e^1000 overflows
+
+
+def test_monomials_in_the_header_order():
+    lib = lti.library()
+    p = np.array([2.0, -3.0, 5.0])
+    out = np.zeros(lti.n_monomials(3))
+    lib.ffx_lti_monomials(3, lti._ptr(p), lti._ptr(out))
+    assert out.tolist() == [1, 2, -3, 5, 4, -6, 10, 9, -15, 25] == lti.monomials(p).tolist()
+    assert lti.monomial_names(("a", "b")) == ("1", "a", "b", "a*a", "a*b", "b*b")
+
+
+# ---------------------------------------------------------------------------------------------- FFRBeam
+def _ffrbeam(**config):
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+    return FFRBeamSimulator(FFRBeamConfig(**config))
+
+
+@pytest.mark.parametrize("boundary", sorted(HAMMER))
+def test_ffrbeam_hammer_record_matches_the_simulator(boundary):
+    """The paper's virtual experiment (examples/hammer_test.py): a 1 ms half-sine hammer blow at load_s, 10 kS/s,
+    2 s; all 25 outputs of the C kernel against FFRBeamSimulator, step by step."""
+    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES
+    load_s, sensor_s = HAMMER[boundary]
+    sim = _ffrbeam(boundary=boundary, damping_ratio=0.002, load_s=load_s, sensor_s=sensor_s)
+    model = lti.LtiModel.from_ffrbeam(sim)
+    kernel = model.kernel()
+    dt, n = 1e-4, 20000
+    x = np.zeros(model.nx)
+    mine, ref = [], []
+    v = np.zeros(len(INPUT_NAMES))
+    for k in range(n):
+        t = k * dt
+        f = 20.0 * np.sin(np.pi * t / 1e-3) if t < 1e-3 else 0.0
+        v[:3] = (f, 0.7 * f, 0.4 * f)
+        sim.set_input_vector(v)
+        u, p = model.split_inputs(v)
+        sim.step(dt)
+        x = kernel.step(x, u, p, dt)
+        mine.append(kernel.outputs(x, u, p))
+        ref.append(sim.output_vector())
+    err = _relative_errors(mine, ref, _ffr_groups())
+    worst = int(np.argmax(err))
+    print(f"\n{boundary}: {n} steps, worst relative difference {err[worst]:.2e} ({OUTPUT_NAMES[worst]}); "
+          f"maps recomputed {kernel.counters}; extraction {model.fit_error}")
+    assert err.max() <= RTOL
+    assert kernel.counters == (1, 1)                  # one p and one h all along: the maps once
+    assert np.max(np.abs(np.array(ref)[:, 6:9])) > 1.0           # the accelerometer saw the blow
+
+
+def _random_run(sim, model, rng, n_segments=24, damping=(0.0, 0.3)):
+    """Held inputs (loads, base_a, base_w, base_dw) drawn per segment of 5..40 steps of 2e-4..5e-3 s; the damping
+    ratio changed twice at run time (Python: with_damping / a new instance, C: the parameter p[0]).  Returns the
+    C and Python outputs after every step."""
+    from flexfmu.native.lti import LtiSimulator
+    native = LtiSimulator(model)
+    names = model.input_names
+    mine, ref = [], []
+    for seg in range(n_segments):
+        v = np.zeros(len(names))
+        for k, name in enumerate(names):
+            v[k] = rng.standard_normal() * (3.0 if name.startswith("base_w") else 10.0 if name.startswith("base_")
+                                            else 1.0)
+        if seg == n_segments // 3:
+            sim = _redamped(sim, damping[0])
+            native.set_parameter("damping_ratio", damping[0])
+        if seg == 2 * n_segments // 3:
+            sim = _redamped(sim, damping[1])
+            native.set_parameter("damping_ratio", damping[1])
+        sim.set_input_vector(v)
+        native.set_input_vector(v)
+        h = float(rng.choice([2e-4, 1e-3, 5e-3]))
+        for _ in range(int(rng.integers(5, 40))):
+            sim.step(h)
+            native.step(h)
+            mine.append(native.output_vector())
+            ref.append(sim.output_vector())
+    return np.array(mine), np.array(ref), native
+
+
+def _redamped(sim, zeta):
+    if hasattr(sim, "with_damping"):                  # FFRBeam
+        return sim.with_damping(zeta)
+    from flexfmu.body.simulator import FlexBodySimulator
+    other = FlexBodySimulator(sim.body, dataclasses.replace(sim.config, damping_ratio=zeta))
+    state = sim.get_state()
+    state["config"] = dataclasses.asdict(other.config)
+    other.set_state(state)
+    return other
+
+
+@pytest.mark.parametrize("stiffening", [False, True], ids=["plain", "geometric_stiffening"])
+@pytest.mark.parametrize("correction", ["off", "on"])
+def test_ffrbeam_random_held_base_motion_matches_the_simulator(stiffening, correction, rng):
+    """Random held loads and base motion (w up to ~10 rad/s, alpha and a0 up to ~30), steps of 0.2 .. 5 ms, the
+    damping ratio changed at run time: all 25 outputs within 1e-10; with the static correction (n_modes = -1) the
+    energy's degree-4 term in the base rotation travels as monomial products."""
+    from flexfmu.ffr.simulator import OUTPUT_NAMES
+    config = {"geometric_stiffening": stiffening}
+    config.update({"n_modes": -1} if correction == "on" else {"n_modes": 6, "static_correction": 0})
+    sim = _ffrbeam(**config)
+    assert (sim.static_correction is not None) == (correction == "on")
+    model = lti.LtiModel.from_ffrbeam(sim)
+    assert model.np == (10 if stiffening else 7)
+    assert all(v < 1e-12 for v in model.fit_error.values()), model.fit_error
+    mine, ref, native = _random_run(sim, model, rng)
+    err = _relative_errors(mine, ref, _ffr_groups())
+    worst = int(np.argmax(err))
+    print(f"\nFFRBeam {config}: nx {model.nx}, np {model.np}, {model.nquad} quadratic terms; {len(ref)} steps, "
+          f"worst {err[worst]:.2e} ({OUTPUT_NAMES[worst]}); extraction {model.fit_error}; "
+          f"maps {native.kernel.counters}")
+    assert err.max() <= RTOL
+    energy = OUTPUT_NAMES.index("elastic_energy")
+    assert np.all(ref[:, energy] > 0)
+
+
+def test_ffrbeam_step_maps_equal_the_python_exponential():
+    """Ad, Bd, bd of the kernel against FFRBeamDynamics.fast_maps (scipy's expm of the same system) for steps from
+    0.1 ms to 1 s and a spinning, accelerating base."""
+    from flexfmu.ffr.dynamics import BaseMotion
+    sim = _ffrbeam(geometric_stiffening=True)
+    model = lti.LtiModel.from_ffrbeam(sim)
+    kernel = model.kernel()
+    base = BaseMotion(a0=np.array([1.0, -4.0, 9.81]), omega=np.array([2.0, -1.0, 5.0]),
+                      alpha=np.array([10.0, 3.0, -7.0]))
+    p = np.r_[sim.dynamics.damping_ratio, base.omega, base.alpha, base.a0]
+    for h in (1e-4, 1e-3, 1e-2, 0.1, 1.0):
+        Ad, Bu, b0, _, _ = sim.dynamics.fast_maps(h, base)
+        mAd, mBd, mbd = kernel.step_maps(p, h)
+        errs = (_rel(mAd, Ad), _rel(mBd, Bu), _rel(mbd, b0))
+        print(f"h = {h:g} s: Ad {errs[0]:.1e}, Bd {errs[1]:.1e}, bd {errs[2]:.1e}")
+        assert max(errs) <= 1e-11
+
+
+def test_ffrbeam_rk4_is_refused():
+    with pytest.raises(ParameterError) as err:
+        lti.LtiModel.from_ffrbeam(_ffrbeam(integrator="rk4"))
+    assert err.value.parameter == "integrator"
+
+
+# ---------------------------------------------------------------------------------------------- clamped bodies
+def _clamped_rod():
+    from flexfmu.body.build import build_body
+    from flexfmu.ffr.assembly import build_beam_model
+    s = build_beam_model(straight_rod(0.8, 0.01), "free", 8).structure()
+    s = dataclasses.replace(s, node_sets={"root": np.array([0])})
+    return build_body(s, interfaces=[{"name": "tip", "point": [0.8, 0, 0]}, {"name": "mid", "point": [0.4, 0, 0]}],
+                      clamp="root", n_modes=5, damping_ratio=0.03)
+
+
+def _clamped_plate():
+    """A small solid (the reframe paper's plate, coarse tetra10 mesh) clamped along its x = min edge."""
+    from flexfmu.body.build import build_body
+    from flexfmu.reframe.models import load_model
+    s = load_model("paper_plate", divisions=(6, 2, 1))
+    x = s.nodes[:, 0]
+    s = dataclasses.replace(s, node_sets={"root": np.flatnonzero(np.isclose(x, x.min()))})
+    return build_body(s, interfaces=[{"name": "A", "point": [float(x.max()), 0.0, 0.0]}], clamp="root", n_modes=6)
+
+
+@pytest.mark.parametrize("make", [_clamped_rod, _clamped_plate], ids=["beam_rod", "solid_plate"])
+def test_clamped_body_matches_its_simulator(make, rng):
+    """An exported clamped body (flexfmu.body, as `flexfmu export --clamp` builds it): random held interface loads
+    and base motion, the damping ratio changed at run time; every output within 1e-10."""
+    from flexfmu.body.simulator import FlexBodySimulator
+    body = make()
+    sim = FlexBodySimulator(body)
+    model = lti.LtiModel.from_clamped_body(sim)
+    assert model.param_names[0] == "damping_ratio" and model.p_start[0] == pytest.approx(body.damping_ratio)
+    assert all(v < 1e-12 for v in model.fit_error.values()), model.fit_error
+    mine, ref, native = _random_run(sim, model, rng, damping=(0.1, 0.0))
+    groups = [k // 3 for k in range(model.ny)]
+    err = _relative_errors(mine, ref, groups)
+    worst = int(np.argmax(err))
+    print(f"\n{make.__name__}: nx {model.nx}, nu {model.nu}, ny {model.ny}, {model.nquad} quadratic terms; "
+          f"{len(ref)} steps, worst {err[worst]:.2e} ({model.output_names[worst]}); extraction {model.fit_error}")
+    assert err.max() <= RTOL
+
+
+def test_free_body_is_refused():
+    from flexfmu.body.build import build_body
+    from flexfmu.body.simulator import FlexBodySimulator
+    from flexfmu.ffr.assembly import build_beam_model
+    s = build_beam_model(straight_rod(0.5, 0.01), "free", 4).structure()
+    body = build_body(s, interfaces=[{"name": "tip", "point": [0.5, 0, 0]}], n_modes=2)
+    with pytest.raises(ParameterError) as err:
+        lti.LtiModel.from_clamped_body(FlexBodySimulator(body))
+    assert err.value.parameter == "body"
+
+
+# ---------------------------------------------------------------------------------------------- the kernel's contract
+@pytest.fixture(scope="module")
+def ffr_model():
+    return lti.LtiModel.from_ffrbeam(_ffrbeam())
+
+
+def test_maps_are_recomputed_only_when_p_or_h_change(ffr_model):
+    kernel = ffr_model.kernel()
+    x, u = np.zeros(ffr_model.nx), np.ones(ffr_model.nu)
+    p = ffr_model.p_start.copy()
+    for _ in range(5):
+        x = kernel.step(x, u, p, 1e-3)
+        kernel.outputs(x, u * 2, p)                  # inputs u change nothing
+    assert kernel.counters == (1, 1)
+    x = kernel.step(x, u, p, 2e-3)                     # h: the step maps only
+    assert kernel.counters == (2, 1)
+    p[2] = 0.5
+    x = kernel.step(x, u, p, 2e-3)
+    kernel.outputs(x, u, p)
+    assert kernel.counters == (3, 2)
+    kernel.invalidate()
+    kernel.step(x, u, p, 2e-3)
+    assert kernel.counters == (4, 2)
+
+
+def test_steps_equal_repeated_steps(ffr_model):
+    kernel = ffr_model.kernel()
+    rng = np.random.default_rng(5)
+    x0, u = rng.standard_normal(ffr_model.nx) * 1e-4, rng.standard_normal(ffr_model.nu)
+    p = np.r_[0.02, rng.standard_normal(6)]
+    x = x0
+    for _ in range(7):
+        x = kernel.step(x, u, p, 1e-3)
+    assert np.array_equal(kernel.steps(x0, u, p, 1e-3, 7), x)
+    assert np.array_equal(kernel.steps(x0, u, p, 1e-3, 0), x0)
+
+
+def test_non_finite_results_are_reported_and_leave_the_state(ffr_model):
+    lib = lti.library()
+    kernel = ffr_model.kernel()
+    x = np.full(ffr_model.nx, 1e-3)
+    u = np.zeros(ffr_model.nu)
+    p = ffr_model.p_start.copy()
+    p[1] = 1e200                                        # base_w_x: the maps overflow
+    before = x.copy()
+    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), lti._ptr(p), 1e-3, lti._ptr(x), lti._ptr(u), lti._ptr(x))
+    assert status == lti.NONFINITE and np.array_equal(x, before)      # in place: x untouched
+    with pytest.raises(NonFiniteError):
+        kernel.step(x, u, p, 1e-3)
+    with pytest.raises(NonFiniteError):
+        kernel.outputs(x, u, p)
+    p = ffr_model.p_start.copy()
+    y = np.zeros(ffr_model.ny)
+    status = lib.ffx_lti_outputs(ctypes.byref(kernel._maps), lti._ptr(p), lti._ptr(np.full(ffr_model.nx, 1e300)),
+                                 lti._ptr(u), lti._ptr(y))
+    assert status == lti.NONFINITE
+    for h in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ParameterError):
+            kernel.step(x, u, p, h)
+    assert lib.ffx_lti_status_string(lti.NONFINITE).decode().startswith("a result is not finite")
+
+
+def _integrator_model():
+    """x' = u, y = x + x^2 (nx = nu = ny = 1, no parameters): by hand."""
+    one = np.ones((1, 1, 1))
+    return lti.LtiModel(A=0 * one, B=one, b=np.zeros((1, 1)), Cx=one, Cu=0 * one, y0=np.zeros((1, 1)),
+                        quad_row=[0], quad_i=[0], quad_j=[0], quad_value=[1.0], input_names=("u",), param_names=(),
+                        output_names=("y",), u_from_input=[0], p_from_input=np.zeros(0), p_start=np.zeros(0))
+
+
+def test_state_overflow_is_reported_and_leaves_the_state():
+    model = _integrator_model()
+    kernel = model.kernel()
+    lib = lti.library()
+    p = np.zeros(1)                                     # np = 0: never read
+    x, u = np.array([1e308]), np.array([1e308])
+    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), lti._ptr(p), 1.0, lti._ptr(x), lti._ptr(u), lti._ptr(x))
+    assert status == lti.NONFINITE and x[0] == 1e308
+    status = lib.ffx_lti_steps(ctypes.byref(kernel._maps), lti._ptr(p), 0.3, 3, lti._ptr(x), lti._ptr(u),
+                               lti._ptr(x))
+    assert status == lti.NONFINITE and x[0] == 1e308  # the third step overflows: none is kept
+    assert kernel.step(np.array([1.0]), np.array([2.0]), np.zeros(0), 0.25)[0] == pytest.approx(1.5, rel=1e-15)
+    assert kernel.outputs(np.array([3.0]), np.array([0.0]), np.zeros(0)).tolist() == [12.0]
+    with pytest.raises(NonFiniteError):
+        kernel.outputs(np.array([1e200]), np.array([0.0]), np.zeros(0))
+
+
+def test_arrays_round_trip_and_the_model_check(ffr_model):
+    arrays, names = ffr_model.arrays(), ffr_model.names()
+    assert {a.dtype for a in arrays.values()} <= {np.dtype(np.float64), np.dtype(np.int32)}
+    assert int(arrays["nmono"]) == lti.n_monomials(int(arrays["np"])) == ffr_model.A.shape[0]
+    again = lti.LtiModel.from_arrays(arrays, names)
+    for key, value in arrays.items():
+        assert np.array_equal(getattr(again, key), value)
+    assert again.param_names == ("damping_ratio", "base_w_x", "base_w_y", "base_w_z", "base_dw_x", "base_dw_y",
+                                 "base_dw_z")
+    assert again.u_names == ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z", "base_a_x", "base_a_y", "base_a_z")
+    bad = dict(arrays, quad_i=arrays["quad_i"].copy())
+    bad["quad_i"][0] = ffr_model.nx + ffr_model.nu + ffr_model.nmono
+    with pytest.raises(ParameterError):
+        lti.LtiModel.from_arrays(bad, names)
+    lib = lti.library()
+    kernel = ffr_model.kernel()
+    assert lib.ffx_lti_check_model(ctypes.byref(kernel._model)) == lti.OK
+    kernel._model.nmono -= 1
+    assert lib.ffx_lti_check_model(ctypes.byref(kernel._model)) == lti.BAD_ARGUMENT
+    maps, work = lti._Maps(), np.zeros(4)
+    kernel._model.nmono += 1
+    assert lib.ffx_lti_maps_init(ctypes.byref(maps), ctypes.byref(kernel._model), lti._ptr(work), 4) == \
+        lti.BAD_ARGUMENT                                # too little workspace
+
+
+def test_numpy_evaluation_equals_the_kernel(ffr_model):
+    """LtiModel's numpy outputs (the extraction's check) and the C outputs: the same sums."""
+    rng = np.random.default_rng(9)
+    kernel = ffr_model.kernel()
+    for _ in range(3):
+        x, u = rng.standard_normal(ffr_model.nx) * 1e-3, rng.standard_normal(ffr_model.nu)
+        p = np.r_[0.05, rng.standard_normal(6) * 3]
+        assert _rel(kernel.outputs(x, u, p), ffr_model.outputs(x, u, p)) <= 1e-14
