@@ -43,7 +43,9 @@ def fmu_instance(fmus):
 
 #: Test tiers (pytest markers, registered in pyproject.toml); .ci/run runs them all.
 #: host: our FMUs in hosts other than fmpy; study: the studies' building blocks and independent references;
-#: fmu: anything that builds or loads an FMU; unit: the library alone.
+#: fmu: anything that builds or loads an FMU; unit: the library alone.  A test marked with a tier itself keeps
+#: it (test_fmu_native.py: its C-host, ecos and libcosim tests are marked host, the rest are fmu).
+TIERS = ("unit", "fmu", "host", "study")
 HOST_FILES = {"test_fmu_c_host.py", "test_fmu_ecos.py", "test_fmu_hosts.py", "test_fmu_ssp.py"}
 STUDY_FILES = {"test_work_precision.py", "test_stability.py", "test_spinup_models.py", "test_spinup_reference.py",
                "test_reframe_exudyn.py", "test_wave_sweep.py", "test_wave_power_matrix.py", "test_wave_barge.py"}
@@ -51,6 +53,8 @@ STUDY_FILES = {"test_work_precision.py", "test_stability.py", "test_spinup_model
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
+        if any(item.get_closest_marker(tier) for tier in TIERS):
+            continue
         name = item.path.name
         tier = ("host" if name in HOST_FILES else "study" if name in STUDY_FILES
                 else "fmu" if "fmus" in getattr(item, "fixturenames", ()) or name.startswith(("test_fmu", "test_fmi"))

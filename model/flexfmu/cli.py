@@ -7,7 +7,8 @@
                   [--json] [--plot PNG]
     flexfmu export MODEL -o OUT.fmu [--material E,NU,RHO] [--nodes FILE] [--clamp SPEC]
                   [--interface NAME=X,Y,Z]... [--modes N | --f-max HZ [--tolerance TOL]] [--damping ZETA]
-    flexfmu build [--out dist]
+                  [--runtime python|native]
+    flexfmu build [--out dist] [--runtime python|native [--fmu FFRBeam] [--set NAME=VALUE]... [--name ID]]
     flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
     flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|ecos|library]
@@ -89,6 +90,10 @@ def _export(args: argparse.Namespace) -> int:
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
+    if args.runtime == "native" and (args.clamp == "free" or (args.clamp is None and _is_free_model_spec(args.model))):
+        raise ParameterError("runtime", "native: a free body (no --clamp), and the native runtime has no free-body "
+                             "(reframe) kind yet", "--runtime python (the default) for free bodies; --runtime native "
+                             "for clamped ones (--clamp SET)")
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -104,8 +109,8 @@ def _export(args: argparse.Namespace) -> int:
                       tolerance=args.tolerance, damping_ratio=args.damping)
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
-    target = export_fmu(body, args.output)
-    print(f"wrote {target}: {body.summary()}")
+    target = export_fmu(body, args.output, runtime=args.runtime)
+    print(f"wrote {target}: {body.summary()}" + (" (native runtime)" if args.runtime == "native" else ""))
     return 0
 
 
@@ -177,10 +182,40 @@ def _main_job(args: argparse.Namespace) -> int:
     return 0
 
 
+def _is_free_model_spec(model: str) -> bool:
+    """A model spec that is free unless --clamp is given (a beam scene or the paper's plate; model files may carry
+    constrained DOFs, known only once read)."""
+    return model == "paper_plate" or model.startswith("beam:")
+
+
+def _settings(pairs: list) -> dict:
+    """--set NAME=VALUE (repeatable; a later one wins) -> {name: text}."""
+    out = {}
+    for text in pairs:
+        name, eq, value = text.partition("=")
+        if not eq or not name.strip():
+            raise ParameterError("set", f"got {text!r}", "NAME=VALUE, e.g. --set boundary=XFX")
+        out[name.strip()] = value
+    return out
+
+
 def _build(args: argparse.Namespace) -> int:
-    """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout."""
+    """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout; with --runtime
+    native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
+    out = args.out if args.out else Path("dist")
+    if args.runtime == "native":
+        from flexfmu.fmi.native import build_registry_fmu
+        target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name)
+        print(f"built {target} (native runtime; fmpy validate: no problems)")
+        return 0
+    for option in ("fmu", "name"):
+        if getattr(args, option) is not None:
+            raise ParameterError(option, "is an option of --runtime native", "--runtime native --" + option)
+    if args.set:
+        raise ParameterError("set", "is an option of --runtime native (a Python FMU takes its parameters when "
+                                    "instantiated)", "--runtime native --set NAME=VALUE")
     from flexfmu.fmi.build import build
-    build(args.out if args.out else Path("dist"))
+    build(out)
     return 0
 
 
@@ -450,10 +485,23 @@ def build_parser() -> argparse.ArgumentParser:
                       help="relative truncation error at the interfaces for --f-max (default 1e-3)")
     export.add_argument("--damping", type=float, default=0.02, metavar="ZETA",
                         help="modal damping ratio (default 0.02; an FMU parameter too)")
+    export.add_argument("--runtime", choices=("python", "native"), default="python",
+                        help="python (default): the FMU runs flexfmu in the host's Python; native: a C-only binary "
+                             "with no Python (clamped bodies; docs/fmu.md, 'Native runtime')")
     export.set_defaults(func=_export)
 
     build = sub.add_parser("build", help="build the FMUs of flexfmu.fmi.registry into dist/")
     build.add_argument("--out", type=Path, default=None, help="output folder (default: ./dist)")
+    build.add_argument("--runtime", choices=("python", "native"), default="python",
+                       help="python (default): every FMU of the registry, running flexfmu in the host's Python; "
+                            "native: one C-only FMU (no Python) of --fmu, its model fixed by --set at build "
+                            "(docs/fmu.md, 'Native runtime')")
+    build.add_argument("--fmu", default=None, metavar="NAME",
+                       help="native: the registry FMU to build (default FFRBeam; ReframeBody has no native form yet)")
+    build.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                       help="native: a parameter's value, fixed at build (repeatable; e.g. --set boundary=XFX)")
+    build.add_argument("--name", default=None, metavar="ID",
+                       help="native: the model identifier and file stem (default: the FMU's name)")
     build.set_defaults(func=_build)
 
     reframe = sub.add_parser(

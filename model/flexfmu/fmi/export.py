@@ -144,10 +144,16 @@ def documentation_html(name: str, body) -> str:
 """
 
 
-def export_fmu(body, target: Path, *, description: str | None = None) -> Path:
+def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python") -> Path:
     """Build the FMU of ``body`` (flexfmu.body.FlexBody) at ``target`` (``NAME.fmu``; NAME becomes the
-    modelIdentifier)."""
-    from flexfmu.fmi import build, runtime
+    modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native; clamped bodies)."""
+    if runtime == "native":
+        from flexfmu.fmi.native import export_native
+        return export_native(body, target, description=description)
+    if runtime != "python":
+        raise ParameterError("runtime", f"got {runtime!r}", "python | native")
+    from flexfmu.fmi import build
+    from flexfmu.fmi import runtime as python_runtime
 
     target = Path(target)
     name = check_target(target)
@@ -157,6 +163,6 @@ def export_fmu(body, target: Path, *, description: str | None = None) -> Path:
         body.save(model_file)
         spec = ExportedSpec(name, description, body)
         script = SLAVE_TEMPLATE.format(name=name, description=description, body_file=BODY_FILE)
-        runtime_files = runtime.compile_runtime(runtime.build_folder())
+        runtime_files = python_runtime.compile_runtime(python_runtime.build_folder())
         return build.build_one(name, script, spec.variable_info, default_experiment(body), target, runtime_files,
                                resources=(model_file,), documentation={"index.html": documentation_html(name, body)})

@@ -12,11 +12,21 @@
  * which it is legal), argument checks, state transitions, the FMU-state wrapper and its serialised
  * header, and the host's logging settings.  The bridge only runs the slave's Python.
  * Nothing is ever dlclose()d or finalised (see flexfmu_python.c): the host may unload this library.
+ *
+ * Native FMUs (flexfmu.fmi.native; docs/fmu.md, "Native runtime") compile this same file with -DFLEXFMU_NATIVE
+ * (or through native_front.c) and link it statically with the native bridge (flexfmu_native.c) and a model
+ * kind: load_bridge then returns the built-in API, and nothing about libpython is read or loaded.  That
+ * variant builds on Linux, macOS (dladdr, pthreads) and Windows (native_platform.h: SRW locks and
+ * GetModuleFileName instead); the Python variant is Linux-only and unchanged.
  */
+#if defined(_WIN32)
+#include "native_platform.h" /* pthread mutexes on SRW locks, dladdr on GetModuleHandleEx */
+#else
 #define _GNU_SOURCE /* dladdr, RTLD_DEFAULT */
 #include <dlfcn.h>
-#include <math.h>
 #include <pthread.h>
+#endif
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -257,9 +267,33 @@ static int resources_uri_path(const char *uri, char *path, size_t size) {
     }
     path[j] = '\0';
     while (j > 1 && path[j - 1] == '/') path[--j] = '\0';
+#if defined(_WIN32)
+    if (path[0] == '/' && path[1] && path[2] == ':') memmove(path, path + 1, j); /* "/C:/a" -> "C:/a" */
+#endif
     return 0;
 }
 
+#if defined(FLEXFMU_NATIVE)
+/* The native bridge is linked in (flexfmu_native.c): no libpython, no second library. */
+const BridgeApi *flexfmu_native_api(void);
+
+static const BridgeApi *load_bridge(const char *resources) {
+    (void)resources;
+    pthread_mutex_lock(&load_lock);
+    if (!loaded_bridge && !load_error[0]) {
+        const BridgeApi *api = flexfmu_native_api();
+        char why[2048] = "";
+        if (!api || api->version != FLEXFMU_BRIDGE_VERSION)
+            snprintf(load_error, sizeof load_error, "the FMU's native bridge has another version than its front");
+        else if (api->start(NULL, why, sizeof why) != 0)
+            snprintf(load_error, sizeof load_error, "%s", why);
+        else
+            loaded_bridge = api;
+    }
+    pthread_mutex_unlock(&load_lock);
+    return loaded_bridge;
+}
+#else
 typedef struct {
     char libpython[4096], python_home[4096], python_version[32], site_dirs[16384];
 } RuntimeSettings;
@@ -339,6 +373,7 @@ done:
     pthread_mutex_unlock(&load_lock);
     return loaded_bridge;
 }
+#endif /* FLEXFMU_NATIVE */
 
 /* ---- FMI 2.0: common functions ----------------------------------------------------------------- */
 

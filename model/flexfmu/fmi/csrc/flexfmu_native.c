@@ -1,0 +1,1145 @@
+/*
+ * flexfmu_native.c - the native bridge of the flexfmu FMUs: BridgeApi (flexfmu_bridge.h) in C99 with no
+ * Python, linked statically with the front (flexfmu_fmi2.c compiled with -DFLEXFMU_NATIVE, or
+ * native_front.c) and a model kind (native_kind.h; native_lti.c) into the FMU's one shared library.
+ *
+ * It does for a native FMU what flexfmu.fmi.plumbing does for a Python one, with the same value
+ * references, the same checks and the same messages where the cases are the same:
+ *  - reads the reduced model from resources/flexfmu_model.bin (format: flexfmu/fmi/native.py, docs/fmu.md)
+ *    on each fmi2Instantiate (instances share nothing);
+ *  - holds the variables: parameters (structural ones fixed at build: their build value is accepted, another
+ *    is refused naming the parameter, its build value and the rebuild command; runtime ones settable until
+ *    fmi2ExitInitializationMode and range-checked there), inputs (held from fmi2DoStep on: outputs read
+ *    after new inputs are set are still those of the last step's inputs), outputs (computed when first read
+ *    after a step);
+ *  - refuses non-finite values when set, a currentCommunicationPoint that is not the FMU's time, a state or
+ *    output that is not finite or beyond the model's divergence limit (naming the input behind it, else
+ *    "state"), each with one message through the front's log (fmi2Error, category logStatusError; a step a
+ *    smaller one may take: fmi2Discard, logStatusDiscard); status-OK messages (what the model holds and
+ *    chose) go out with category logAll;
+ *  - FMU states hold everything: the variables' values, the held inputs, the outputs, the time, the start
+ *    time and the kind's state vector; serialised as the layout below (after the front's header).
+ * No globals are written: everything is per instance, so instances in any number and on any threads (one
+ * call at a time per instance, which the front ensures) are independent.
+ * Over 500 lines on purpose: the plumbing's job in C (model file, variables, checks, FMU states), one section
+ * each; the model's equations are in the kinds.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "flexfmu_bridge.h"
+#include "native_kind.h"
+
+#define MODEL_FILE "flexfmu_model.bin"
+/* the model file: magic, then u32 format version (flexfmu/fmi/native.py FORMAT_VERSION) */
+static const char FILE_MAGIC[16] = {'f', 'l', 'e', 'x', 'f', 'm', 'u', '-', 'n', 'a', 't', 'i', 'v', 'e', '\n', '\0'};
+#define FILE_VERSION 1u
+/* the serialised FMU state's content (after the front's header) */
+static const char STATE_MAGIC[8] = {'F', 'X', 'N', 'A', 'T', 'I', 'V', 'E'};
+#define STATE_VERSION 1u
+
+enum { REAL = 0, INTEGER = 1, BOOLEAN = 2, STRING = 3 };
+enum { PARAMETER = 0, INPUT = 1, OUTPUT = 2 };
+enum { LO_OPEN = 1, HI_OPEN = 2, IS_INTEGER = 4, HAS_SPECIAL = 8 };
+
+static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"};
+static const char *const GET_NAMES[] = {"fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString"};
+static const char *const SET_NAMES[] = {"fmi2SetReal", "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString"};
+
+/* ---- the kinds ----------------------------------------------------------------------------------- */
+
+extern const NativeKind native_lti_kind;
+static const NativeKind *const KINDS[] = {&native_lti_kind};
+
+/* ---- helpers for the kinds ---------------------------------------------------------------------- */
+
+void native_repr(double v, char *text, size_t size) {
+    if (isnan(v)) {
+        snprintf(text, size, "nan");
+        return;
+    }
+    if (isinf(v)) {
+        snprintf(text, size, v > 0 ? "inf" : "-inf");
+        return;
+    }
+    if (v == 0) {
+        snprintf(text, size, signbit(v) ? "-0.0" : "0.0");
+        return;
+    }
+    char buffer[64];
+    for (int precision = 1; precision <= 17; precision++) { /* the shortest that reads back */
+        snprintf(buffer, sizeof buffer, "%.*e", precision - 1, v);
+        if (strtod(buffer, NULL) == v) break;
+    }
+    /* buffer: [-]d[<point>ddd]e(+|-)XX, the point as the locale writes it */
+    char digits[40];
+    int n = 0, negative = buffer[0] == '-';
+    const char *p = buffer + negative;
+    for (; *p && *p != 'e' && *p != 'E'; p++)
+        if (*p >= '0' && *p <= '9' && n < 39) digits[n++] = *p;
+    int exponent = *p ? atoi(p + 1) : 0;
+    while (n > 1 && digits[n - 1] == '0') n--;
+    digits[n] = '\0';
+    int point = exponent + 1; /* value = 0.digits x 10^point */
+    char out[96];
+    size_t k = 0;
+    if (negative) out[k++] = '-';
+    if (point > -4 && point <= 16) { /* Python's repr: fixed notation */
+        if (point <= 0) {
+            out[k++] = '0';
+            out[k++] = '.';
+            for (int i = 0; i < -point; i++) out[k++] = '0';
+            for (int i = 0; i < n; i++) out[k++] = digits[i];
+        } else if (point >= n) {
+            for (int i = 0; i < n; i++) out[k++] = digits[i];
+            for (int i = n; i < point; i++) out[k++] = '0';
+            out[k++] = '.';
+            out[k++] = '0';
+        } else {
+            for (int i = 0; i < point; i++) out[k++] = digits[i];
+            out[k++] = '.';
+            for (int i = point; i < n; i++) out[k++] = digits[i];
+        }
+        out[k] = '\0';
+    } else {
+        out[k++] = digits[0];
+        if (n > 1) {
+            out[k++] = '.';
+            for (int i = 1; i < n; i++) out[k++] = digits[i];
+        }
+        snprintf(out + k, sizeof out - k, "e%c%02d", exponent < 0 ? '-' : '+', abs(exponent));
+    }
+    snprintf(text, size, "%s", out);
+}
+
+int native_refuse(NativeResult *result, int status, const char *format, ...) {
+    va_list args;
+    va_start(args, format);
+    vsnprintf(result->message, sizeof result->message, format, args);
+    va_end(args);
+    result->status = status;
+    return status;
+}
+
+void native_note(NativeResult *result, const char *format, ...) {
+    if (!result->note) return;
+    char text[2048];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    result->note(result->note_context, text);
+}
+
+/* ---- the model file -------------------------------------------------------------------------------- */
+
+struct NativeFile {
+    size_t n;
+    NativeEntry *entries;
+};
+
+static void free_file(NativeFile *file) {
+    if (!file) return;
+    for (size_t i = 0; i < file->n; i++) {
+        NativeEntry *e = &file->entries[i];
+        if (e->type == NATIVE_STR && e->data)
+            for (size_t j = 0; j < e->count; j++) free(((char **)e->data)[j]);
+        free(e->data);
+        free(e->name);
+    }
+    free(file->entries);
+    free(file);
+}
+
+typedef struct {
+    const unsigned char *at, *end;
+} Reader;
+
+static int take(Reader *r, size_t n, const unsigned char **bytes) {
+    if ((size_t)(r->end - r->at) < n) return -1;
+    *bytes = r->at;
+    r->at += n;
+    return 0;
+}
+
+static uint32_t le32(const unsigned char *b) {
+    return (uint32_t)b[0] | (uint32_t)b[1] << 8 | (uint32_t)b[2] << 16 | (uint32_t)b[3] << 24;
+}
+
+static uint64_t le64(const unsigned char *b) { return (uint64_t)le32(b) | (uint64_t)le32(b + 4) << 32; }
+
+static double f64_of(const unsigned char *b) {
+    uint64_t bits = le64(b);
+    double value;
+    memcpy(&value, &bits, sizeof value);
+    return value;
+}
+
+static void put32(unsigned char *b, uint32_t v) {
+    for (int i = 0; i < 4; i++) b[i] = (unsigned char)(v >> (8 * i));
+}
+
+static void put_f64(unsigned char *b, double value) {
+    uint64_t bits;
+    memcpy(&bits, &value, sizeof bits);
+    for (int i = 0; i < 8; i++) b[i] = (unsigned char)(bits >> (8 * i));
+}
+
+/* Parse the bytes of a model file; NULL with why. */
+static NativeFile *parse_file(const unsigned char *bytes, size_t size, const char *path, char *why, size_t why_size) {
+    Reader r = {bytes, bytes + size};
+    const unsigned char *b;
+    if (take(&r, 16, &b) < 0 || memcmp(b, FILE_MAGIC, 16) != 0) {
+        snprintf(why, why_size, "%s is not a flexfmu native model file (bad magic)", path);
+        return NULL;
+    }
+    if (take(&r, 8, &b) < 0) {
+        snprintf(why, why_size, "%s is truncated (no header)", path);
+        return NULL;
+    }
+    uint32_t version = le32(b), n = le32(b + 4);
+    if (version != FILE_VERSION) {
+        snprintf(why, why_size,
+                 "%s has model-file format version %u, but this FMU's runtime reads version %u: its binary and its "
+                 "resources come from different flexfmu builds; rebuild the FMU (flexfmu build --runtime native, "
+                 "flexfmu export ... --runtime native)", path, (unsigned)version, FILE_VERSION);
+        return NULL;
+    }
+    NativeFile *file = calloc(1, sizeof *file);
+    if (!file || n > 100000 || !(file->entries = calloc(n ? n : 1, sizeof *file->entries))) {
+        free(file);
+        snprintf(why, why_size, "%s: out of memory or too many entries (%u)", path, (unsigned)n);
+        return NULL;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        NativeEntry *e = &file->entries[i];
+        file->n = i + 1;
+        if (take(&r, 2, &b) < 0) goto truncated;
+        size_t name_length = (size_t)b[0] | (size_t)b[1] << 8;
+        if (take(&r, name_length, &b) < 0 || !(e->name = malloc(name_length + 1))) goto truncated;
+        memcpy(e->name, b, name_length);
+        e->name[name_length] = '\0';
+        if (take(&r, 2, &b) < 0) goto truncated;
+        e->type = b[0];
+        e->ndim = b[1];
+        if (e->ndim > NATIVE_MAX_DIMS || e->type < NATIVE_F64 || e->type > NATIVE_STR) {
+            snprintf(why, why_size, "%s: entry %s has an unknown type %d or %d dimensions", path, e->name, e->type,
+                     e->ndim);
+            goto fail;
+        }
+        e->count = 1;
+        for (int d = 0; d < e->ndim; d++) {
+            if (take(&r, 4, &b) < 0) goto truncated;
+            e->shape[d] = le32(b);
+            if (e->shape[d] && e->count > ((size_t)1 << 31) / e->shape[d]) {
+                snprintf(why, why_size, "%s: entry %s is too large", path, e->name);
+                goto fail;
+            }
+            e->count *= e->shape[d];
+        }
+        if (e->type == NATIVE_F64) {
+            if ((size_t)(r.end - r.at) / 8 < e->count || !(e->data = malloc(8 * (e->count ? e->count : 1))))
+                goto truncated;
+            double *out = e->data;
+            for (size_t j = 0; j < e->count; j++, r.at += 8) out[j] = f64_of(r.at);
+        } else if (e->type == NATIVE_I32) {
+            if ((size_t)(r.end - r.at) / 4 < e->count || !(e->data = malloc(4 * (e->count ? e->count : 1))))
+                goto truncated;
+            int32_t *out = e->data;
+            for (size_t j = 0; j < e->count; j++, r.at += 4) out[j] = (int32_t)le32(r.at);
+        } else {
+            char **out = calloc(e->count ? e->count : 1, sizeof *out);
+            if (!(e->data = out)) goto truncated;
+            for (size_t j = 0; j < e->count; j++) {
+                if (take(&r, 4, &b) < 0) goto truncated;
+                size_t length = le32(b);
+                if (take(&r, length, &b) < 0 || !(out[j] = malloc(length + 1))) goto truncated;
+                memcpy(out[j], b, length);
+                out[j][length] = '\0';
+            }
+        }
+    }
+    if (r.at != r.end) {
+        snprintf(why, why_size, "%s: %zu bytes after the last entry (damaged?)", path, (size_t)(r.end - r.at));
+        goto fail;
+    }
+    return file;
+truncated:
+    snprintf(why, why_size, "%s is truncated or damaged (entry %zu), or memory ran out", path, file->n);
+fail:
+    free_file(file);
+    return NULL;
+}
+
+static NativeFile *read_file(const char *path, char *why, size_t why_size) {
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        snprintf(why, why_size, "cannot open the model file %s (a damaged FMU?)", path);
+        return NULL;
+    }
+    unsigned char *bytes = NULL;
+    size_t size = 0, capacity = 0;
+    for (;;) {
+        if (size == capacity) {
+            capacity = capacity ? 2 * capacity : 1 << 16;
+            unsigned char *grown = realloc(bytes, capacity);
+            if (!grown) {
+                free(bytes);
+                fclose(f);
+                snprintf(why, why_size, "out of memory reading %s", path);
+                return NULL;
+            }
+            bytes = grown;
+        }
+        size_t got = fread(bytes + size, 1, capacity - size, f);
+        size += got;
+        if (got == 0) break;
+    }
+    fclose(f);
+    NativeFile *file = parse_file(bytes, size, path, why, why_size);
+    free(bytes);
+    return file;
+}
+
+const NativeEntry *native_entry(const NativeFile *file, const char *name) {
+    for (size_t i = 0; i < file->n; i++)
+        if (strcmp(file->entries[i].name, name) == 0) return &file->entries[i];
+    return NULL;
+}
+
+static int typed(const NativeFile *file, const char *name, int type, int ndim, const long *shape, const void **data,
+                 uint32_t *found, char *why, size_t why_size) {
+    static const char *const names[] = {"", "float64", "int32", "string"};
+    const NativeEntry *e = native_entry(file, name);
+    if (!e) {
+        snprintf(why, why_size, "the model file has no entry %s", name);
+        return -1;
+    }
+    int ok = e->type == type && e->ndim == ndim;
+    for (int d = 0; ok && d < ndim; d++) ok = !shape || shape[d] < 0 || (long)e->shape[d] == shape[d];
+    if (!ok) {
+        char expected[160] = "", got[160] = "";
+        for (int d = 0; d < ndim; d++) {
+            size_t used = strlen(expected);
+            if (shape && shape[d] >= 0) snprintf(expected + used, sizeof expected - used, "%s%ld", d ? ", " : "", shape[d]);
+            else snprintf(expected + used, sizeof expected - used, "%s*", d ? ", " : "");
+        }
+        for (int d = 0; d < e->ndim; d++) {
+            size_t used = strlen(got);
+            snprintf(got + used, sizeof got - used, "%s%u", d ? ", " : "", (unsigned)e->shape[d]);
+        }
+        snprintf(why, why_size, "model file entry %s is %s (%s), expected %s (%s)", name, names[e->type], got,
+                 names[type], expected);
+        return -1;
+    }
+    if (found) memcpy(found, e->shape, sizeof e->shape);
+    *data = e->data;
+    return 0;
+}
+
+int native_f64(const NativeFile *file, const char *name, int ndim, const long *shape, const double **data,
+               uint32_t *found, char *why, size_t why_size) {
+    return typed(file, name, NATIVE_F64, ndim, shape, (const void **)data, found, why, why_size);
+}
+
+int native_i32(const NativeFile *file, const char *name, int ndim, const long *shape, const int32_t **data,
+               uint32_t *found, char *why, size_t why_size) {
+    return typed(file, name, NATIVE_I32, ndim, shape, (const void **)data, found, why, why_size);
+}
+
+static const char *file_string(const NativeFile *file, const char *name, char *why, size_t why_size) {
+    const void *data;
+    if (typed(file, name, NATIVE_STR, 0, NULL, &data, NULL, why, why_size) < 0) return NULL;
+    return ((char *const *)data)[0];
+}
+
+static char *const *file_strings(const NativeFile *file, const char *name, long n, char *why, size_t why_size) {
+    const void *data;
+    if (typed(file, name, NATIVE_STR, 1, &n, &data, NULL, why, why_size) < 0) return NULL;
+    return (char *const *)data;
+}
+
+/* ---- the model: variables and parameter checks (read-only after instantiate) ---------------------- */
+
+typedef struct {
+    const char *name;
+    int type, causality;
+    int index;            /* input / output / runtime-parameter index; -1: a parameter fixed at build */
+    double start;         /* start (build) value of a Real, Integer or Boolean variable */
+    const char *text;     /* start (build) value of a String */
+} Variable;
+
+typedef struct {
+    double lo, hi, special, replacement;
+    int flags;
+    const char *allowed;
+    int vr;
+} ParameterRule;
+
+typedef struct {
+    NativeFile *file;
+    const NativeKind *kind;
+    void *model;          /* the kind's */
+    NativeLayout layout;
+    const char *guid, *name, *rebuild, *divergence_allowed;
+    size_t n_vars, nx, n_messages, n_rebuild;
+    char *const *rebuild_names, *const *rebuild_values; /* the other fixed settings of the rebuild command */
+    Variable *vars;
+    ParameterRule *rules; /* per runtime parameter */
+    const char **input_names, **output_names, **param_names;
+    int *input_vr, *output_vr;
+    double divergence_limit;
+    char *const *messages;
+} Model;
+
+/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values. */
+typedef struct {
+    int initialised, outputs_valid;
+    double time, start_time;
+    double *values;       /* per variable: parameters' and inputs' values (outputs, strings: 0) */
+    double *held;         /* the inputs the kind got at the last step (or initialisation) */
+    double *outputs;
+    double *x;
+} Snapshot;
+
+typedef struct {
+    Model m;
+    Snapshot now;
+    void *sim;            /* the kind's simulator; NULL before fmi2ExitInitializationMode */
+    double *params;       /* the runtime parameters as the simulator got them (special values replaced) */
+    double *scratch_x, *scratch_y;
+    BridgeLog *log;
+    void *context;
+} Slave;
+
+static void free_model(Model *m) {
+    if (m->model && m->kind) m->kind->free_model(m->model);
+    free(m->vars);
+    free(m->rules);
+    free(m->input_names);
+    free(m->output_names);
+    free(m->param_names);
+    free(m->input_vr);
+    free(m->output_vr);
+    free_file(m->file);
+    memset(m, 0, sizeof *m);
+}
+
+static int load_model(Model *m, const char *resources, const char *guid, char *why, size_t why_size) {
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s", resources, MODEL_FILE);
+    if (!(m->file = read_file(path, why, why_size))) return -1;
+    NativeFile *f = m->file;
+    const char *kind = file_string(f, "kind", why, why_size);
+    if (!kind || !(m->guid = file_string(f, "guid", why, why_size)) || !(m->name = file_string(f, "model", why, why_size))
+        || !(m->rebuild = file_string(f, "rebuild", why, why_size))
+        || !(m->divergence_allowed = file_string(f, "divergence_allowed", why, why_size)))
+        return -1;
+    if (strcmp(guid, m->guid) != 0) {
+        snprintf(why, why_size, "fmuGUID '%s' is not this FMU's ('%s'): the host read another modelDescription.xml "
+                                "than this binary's", guid, m->guid);
+        return -1;
+    }
+    for (size_t k = 0; k < sizeof KINDS / sizeof *KINDS; k++)
+        if (strcmp(KINDS[k]->name, kind) == 0) m->kind = KINDS[k];
+    if (!m->kind) {
+        snprintf(why, why_size, "the model is of kind '%s', which this runtime does not have (rebuild the FMU with "
+                                "the flexfmu that wrote it)", kind);
+        return -1;
+    }
+    const void *names_data;
+    uint32_t shape[NATIVE_MAX_DIMS];
+    if (typed(f, "var.name", NATIVE_STR, 1, NULL, &names_data, shape, why, why_size) < 0) return -1;
+    long n = (long)shape[0];
+    char *const *names = (char *const *)names_data;
+    const int32_t *type, *causality, *index;
+    const double *start, *limit;
+    char *const *texts;
+    if (native_i32(f, "var.type", 1, &n, &type, NULL, why, why_size) < 0
+        || native_i32(f, "var.causality", 1, &n, &causality, NULL, why, why_size) < 0
+        || native_i32(f, "var.index", 1, &n, &index, NULL, why, why_size) < 0
+        || native_f64(f, "var.start", 1, &n, &start, NULL, why, why_size) < 0
+        || !(texts = file_strings(f, "var.start_string", n, why, why_size))
+        || native_f64(f, "divergence_limit", 0, NULL, &limit, NULL, why, why_size) < 0)
+        return -1;
+    m->divergence_limit = *limit;
+    m->n_vars = (size_t)n;
+    if (!(m->vars = calloc(m->n_vars ? m->n_vars : 1, sizeof *m->vars))) goto memory;
+    size_t counts[3] = {0, 0, 0};
+    for (size_t i = 0; i < m->n_vars; i++) {
+        Variable *v = &m->vars[i];
+        *v = (Variable){names[i], type[i], causality[i], index[i], start[i], texts[i]};
+        if (v->type < REAL || v->type > STRING || v->causality < PARAMETER || v->causality > OUTPUT
+            || ((v->causality != PARAMETER || v->index >= 0) && v->type == STRING)
+            || ((v->causality != PARAMETER) && v->type != REAL)) {
+            snprintf(why, why_size, "model file: variable %s has an unsupported type or causality", v->name);
+            return -1;
+        }
+        if (v->causality != PARAMETER || v->index >= 0) counts[v->causality]++;
+    }
+    m->layout.n_params = counts[PARAMETER];
+    m->layout.n_inputs = counts[INPUT];
+    m->layout.n_outputs = counts[OUTPUT];
+    m->input_names = calloc(counts[INPUT] + 1, sizeof *m->input_names);
+    m->output_names = calloc(counts[OUTPUT] + 1, sizeof *m->output_names);
+    m->param_names = calloc(counts[PARAMETER] + 1, sizeof *m->param_names);
+    m->input_vr = calloc(counts[INPUT] + 1, sizeof *m->input_vr);
+    m->output_vr = calloc(counts[OUTPUT] + 1, sizeof *m->output_vr);
+    m->rules = calloc(counts[PARAMETER] + 1, sizeof *m->rules);
+    if (!m->input_names || !m->output_names || !m->param_names || !m->input_vr || !m->output_vr || !m->rules)
+        goto memory;
+    for (size_t i = 0; i < m->n_vars; i++) { /* every index used exactly once */
+        Variable *v = &m->vars[i];
+        if (v->causality == PARAMETER && v->index < 0) continue;
+        const char **slot = v->causality == INPUT ? m->input_names : v->causality == OUTPUT ? m->output_names
+                                                                                           : m->param_names;
+        if ((size_t)v->index >= counts[v->causality] || slot[v->index]) {
+            snprintf(why, why_size, "model file: variable %s has a bad index %d", v->name, v->index);
+            return -1;
+        }
+        slot[v->index] = v->name;
+        if (v->causality == INPUT) m->input_vr[v->index] = (int)i;
+        if (v->causality == OUTPUT) m->output_vr[v->index] = (int)i;
+        if (v->causality == PARAMETER) m->rules[v->index].vr = (int)i;
+    }
+    long np = (long)counts[PARAMETER];
+    const double *lo, *hi, *special, *replacement;
+    const int32_t *flags;
+    char *const *allowed;
+    if (native_f64(f, "param.lo", 1, &np, &lo, NULL, why, why_size) < 0
+        || native_f64(f, "param.hi", 1, &np, &hi, NULL, why, why_size) < 0
+        || native_f64(f, "param.special", 1, &np, &special, NULL, why, why_size) < 0
+        || native_f64(f, "param.replacement", 1, &np, &replacement, NULL, why, why_size) < 0
+        || native_i32(f, "param.flags", 1, &np, &flags, NULL, why, why_size) < 0
+        || !(allowed = file_strings(f, "param.allowed", np, why, why_size)))
+        return -1;
+    for (long k = 0; k < np; k++) {
+        ParameterRule *r = &m->rules[k];
+        r->lo = lo[k], r->hi = hi[k], r->special = special[k], r->replacement = replacement[k];
+        r->flags = flags[k], r->allowed = allowed[k];
+    }
+    const NativeEntry *names_entry = native_entry(f, "rebuild.names");
+    if (names_entry && names_entry->type == NATIVE_STR && names_entry->ndim == 1) {
+        m->n_rebuild = names_entry->count;
+        m->rebuild_names = names_entry->data;
+        if (!(m->rebuild_values = file_strings(f, "rebuild.values", (long)m->n_rebuild, why, why_size))) return -1;
+    }
+    const NativeEntry *messages = native_entry(f, "messages");
+    if (messages && messages->type == NATIVE_STR && messages->ndim == 1) {
+        m->messages = messages->data;
+        m->n_messages = messages->count;
+    }
+    m->layout.input_names = m->input_names;
+    m->layout.output_names = m->output_names;
+    m->layout.param_names = m->param_names;
+    if (!(m->model = m->kind->load(f, &m->layout, why, why_size))) return -1;
+    m->nx = m->kind->state_size(m->model);
+    return 0;
+memory:
+    snprintf(why, why_size, "out of memory");
+    return -1;
+}
+
+/* ---- snapshots ------------------------------------------------------------------------------------ */
+
+static int snapshot_alloc(const Model *m, Snapshot *s) {
+    memset(s, 0, sizeof *s);
+    s->values = calloc(m->n_vars + 1, sizeof *s->values);
+    s->held = calloc(m->layout.n_inputs + 1, sizeof *s->held);
+    s->outputs = calloc(m->layout.n_outputs + 1, sizeof *s->outputs);
+    s->x = calloc(m->nx + 1, sizeof *s->x);
+    return s->values && s->held && s->outputs && s->x ? 0 : -1;
+}
+
+static void snapshot_free(Snapshot *s) {
+    free(s->values);
+    free(s->held);
+    free(s->outputs);
+    free(s->x);
+    memset(s, 0, sizeof *s);
+}
+
+static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
+    to->initialised = from->initialised;
+    to->outputs_valid = from->outputs_valid;
+    to->time = from->time;
+    to->start_time = from->start_time;
+    memcpy(to->values, from->values, m->n_vars * sizeof *to->values);
+    memcpy(to->held, from->held, m->layout.n_inputs * sizeof *to->held);
+    memcpy(to->outputs, from->outputs, m->layout.n_outputs * sizeof *to->outputs);
+    memcpy(to->x, from->x, m->nx * sizeof *to->x);
+}
+
+/* The state after fmi2Instantiate / fmi2Reset: start values, no simulator. */
+static void clear(Slave *s) {
+    const Model *m = &s->m;
+    Snapshot *now = &s->now;
+    for (size_t i = 0; i < m->n_vars; i++)
+        now->values[i] = m->vars[i].type == STRING || m->vars[i].causality == OUTPUT ? 0.0 : m->vars[i].start;
+    memset(now->held, 0, m->layout.n_inputs * sizeof *now->held);
+    memset(now->outputs, 0, m->layout.n_outputs * sizeof *now->outputs);
+    memset(now->x, 0, m->nx * sizeof *now->x);
+    now->initialised = now->outputs_valid = 0;
+    now->time = now->start_time = 0.0;
+    if (s->sim) m->kind->free_sim(s->sim);
+    s->sim = NULL;
+}
+
+/* ---- messages ------------------------------------------------------------------------------------- */
+
+static int refuse(Slave *s, int status, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+static int refuse(Slave *s, int status, const char *format, ...) {
+    char text[4096];
+    va_list args;
+    va_start(args, format);
+    vsnprintf(text, sizeof text, format, args);
+    va_end(args);
+    s->log(s->context, status, status == BRIDGE_DISCARD ? "logStatusDiscard" : "logStatusError", text);
+    return status;
+}
+
+static void note(void *context, const char *text) {
+    Slave *s = context;
+    s->log(s->context, BRIDGE_OK, "logAll", text);
+}
+
+static NativeResult new_result(Slave *s) {
+    NativeResult r;
+    memset(&r, 0, sizeof r);
+    r.note = note;
+    r.note_context = s;
+    return r;
+}
+
+/* ---- parameters --------------------------------------------------------------------------------- */
+
+/* The runtime parameters of `values` checked (ranges, in their order) into `params` (special values replaced),
+   or a refusal naming the first one out of range. */
+static int check_parameters(Slave *s, const double *values, double *params) {
+    const Model *m = &s->m;
+    for (size_t k = 0; k < m->layout.n_params; k++) {
+        const ParameterRule *r = &m->rules[k];
+        const Variable *v = &m->vars[r->vr];
+        double value = values[r->vr];
+        params[k] = value;
+        if (v->type == BOOLEAN) continue;
+        if ((r->flags & HAS_SPECIAL) && value == r->special) {
+            params[k] = r->replacement;
+            continue;
+        }
+        int ok = isfinite(value) && ((r->flags & LO_OPEN) ? value > r->lo : value >= r->lo)
+                 && ((r->flags & HI_OPEN) ? value < r->hi : value <= r->hi);
+        if (!ok) {
+            char shown[64];
+            if (v->type == INTEGER) snprintf(shown, sizeof shown, "%d", (int)value);
+            else native_repr(value, shown, sizeof shown);
+            return refuse(s, BRIDGE_ERROR, "%s: got %s (allowed: %s)", v->name, shown, r->allowed);
+        }
+    }
+    return BRIDGE_OK;
+}
+
+/* A simulator of the parameters in `values` (checked), its state in x; NULL after logging why. */
+static void *make_sim(Slave *s, const double *values, double *x) {
+    if (check_parameters(s, values, s->params) != BRIDGE_OK) return NULL;
+    NativeResult r = new_result(s);
+    void *sim = s->m.kind->init(s->m.model, s->params, x, &r);
+    if (!sim) refuse(s, r.status >= BRIDGE_DISCARD ? r.status : BRIDGE_ERROR, "%s",
+                     r.message[0] ? r.message : "the model cannot be set up (out of memory?)");
+    return sim;
+}
+
+/* ---- outputs and validity ------------------------------------------------------------------------- */
+
+static void time_text(double t, char *text, size_t size) { native_repr(t, text, size); }
+
+static void bad_outputs(const Slave *s, const double *y, char *names, size_t size) {
+    names[0] = '\0';
+    int shown = 0;
+    for (size_t i = 0; i < s->m.layout.n_outputs; i++) {
+        if (isfinite(y[i])) continue;
+        size_t used = strlen(names);
+        if (shown++ < 4) snprintf(names + used, size - used, "%s%s", used ? ", " : "", s->m.output_names[i]);
+    }
+    if (shown > 4) {
+        size_t used = strlen(names);
+        snprintf(names + used, size - used, " and %d more", shown - 4);
+    }
+}
+
+/* Compute the outputs of the current state and held inputs (a refusal when one is not finite). */
+static int read_outputs(Slave *s) {
+    Snapshot *now = &s->now;
+    if (!s->sim) return BRIDGE_OK; /* before initialisation: the start values */
+    NativeResult r = new_result(s);
+    double *y = s->scratch_y;
+    int status = s->m.kind->outputs(s->sim, now->x, now->held, y, &r);
+    if (status == BRIDGE_OK) {
+        for (size_t i = 0; i < s->m.layout.n_outputs; i++)
+            if (!isfinite(y[i])) status = NATIVE_NOT_FINITE;
+    }
+    if (status == NATIVE_NOT_FINITE) {
+        char names[512], t[64];
+        bad_outputs(s, y, names, sizeof names);
+        int j = s->m.kind->culprit(s->sim, 1, now->x, now->held, 1e300);
+        if (j >= 0)
+            return refuse(s, BRIDGE_ERROR, "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: "
+                                           "inputs within the model's range", s->m.input_names[j], now->held[j],
+                          names, now->start_time + now->time);
+        time_text(now->start_time + now->time, t, sizeof t);
+        return refuse(s, BRIDGE_ERROR, "%s: not finite at t = %s s (the inputs or parameters drive the model beyond "
+                                       "its range)", names, t);
+    }
+    if (status != BRIDGE_OK) return refuse(s, status, "outputs: %s", r.message);
+    memcpy(now->outputs, y, s->m.layout.n_outputs * sizeof *y);
+    now->outputs_valid = 1;
+    return BRIDGE_OK;
+}
+
+/* ---- BridgeApi ------------------------------------------------------------------------------------- */
+
+static int start(const BridgeSettings *settings, char *error, size_t error_size) {
+    (void)settings, (void)error, (void)error_size;
+    return 0; /* nothing to start: no interpreter, no shared state */
+}
+
+static void free_slave(Slave *s) {
+    if (!s) return;
+    if (s->sim) s->m.kind->free_sim(s->sim);
+    snapshot_free(&s->now);
+    free(s->params);
+    free(s->scratch_x);
+    free(s->scratch_y);
+    free_model(&s->m);
+    free(s);
+}
+
+static void *instantiate(const char *resources_dir, const char *instance_name, const char *guid, int visible,
+                         BridgeLog *log, void *context) {
+    (void)instance_name, (void)visible;
+    Slave *s = calloc(1, sizeof *s);
+    char why[3072] = "";
+    if (!s) {
+        log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
+        return NULL;
+    }
+    s->log = log;
+    s->context = context;
+    if (load_model(&s->m, resources_dir, guid ? guid : "", why, sizeof why) < 0) {
+        char text[3200];
+        snprintf(text, sizeof text, "fmi2Instantiate: %s", why);
+        log(context, BRIDGE_ERROR, "logStatusError", text);
+        free_slave(s);
+        return NULL;
+    }
+    if (snapshot_alloc(&s->m, &s->now) < 0 || !(s->params = calloc(s->m.layout.n_params + 1, sizeof *s->params))
+        || !(s->scratch_x = calloc(s->m.nx + 1, sizeof *s->scratch_x))
+        || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))) {
+        log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
+        free_slave(s);
+        return NULL;
+    }
+    clear(s);
+    return s;
+}
+
+static void free_instance(void *slave) { free_slave(slave); }
+
+static int setup_experiment(void *slave, int tolerance_defined, double tolerance, double start_time,
+                            int stop_time_defined, double stop_time) {
+    (void)tolerance_defined, (void)tolerance, (void)stop_time_defined, (void)stop_time;
+    ((Slave *)slave)->now.start_time = start_time;
+    return BRIDGE_OK;
+}
+
+static int exit_initialization_mode(Slave *s) {
+    Snapshot *now = &s->now;
+    double *x = s->scratch_x;
+    void *sim = make_sim(s, now->values, x);
+    if (!sim) return BRIDGE_ERROR;
+    s->sim = sim;
+    memcpy(now->x, x, s->m.nx * sizeof *x);
+    now->time = 0.0;
+    now->initialised = 1;
+    now->outputs_valid = 0;
+    for (size_t j = 0; j < s->m.layout.n_inputs; j++) now->held[j] = now->values[s->m.input_vr[j]];
+    for (size_t k = 0; k < s->m.n_messages; k++) note(s, s->m.messages[k]);
+    return read_outputs(s); /* every output once: a problem shows here rather than at a later read */
+}
+
+static int simple_call(void *slave, BridgeSimpleCall call) {
+    Slave *s = slave;
+    switch (call) {
+    case CALL_EXIT_INITIALIZATION_MODE: return exit_initialization_mode(s);
+    case CALL_RESET: clear(s); return BRIDGE_OK;
+    default: return BRIDGE_OK;
+    }
+}
+
+#define TIME_RTOL 1e-9 /* flexfmu.fmi.plumbing.TIME_RTOL */
+
+static int do_step(void *slave, double current_time, double h) {
+    Slave *s = slave;
+    Snapshot *now = &s->now;
+    const Model *m = &s->m;
+    if (!s->sim) /* the front allows fmi2DoStep in StepComplete only; a crafted state could disagree */
+        return refuse(s, BRIDGE_ERROR, "fmi2DoStep: the instance is not initialised (its FMU state was taken before "
+                                       "fmi2ExitInitializationMode)");
+    double t_now = now->start_time + now->time;
+    if (fabs(current_time - t_now) > TIME_RTOL * fmax(1.0, fabs(t_now))) {
+        char got[64], expected[64];
+        native_repr(current_time, got, sizeof got);
+        native_repr(t_now, expected, sizeof expected);
+        return refuse(s, BRIDGE_ERROR, "currentCommunicationPoint: got %s s, expected the FMU's time %s s (roll back "
+                                       "with fmi2SetFMUstate to step from another time)", got, expected);
+    }
+    for (size_t j = 0; j < m->layout.n_inputs; j++) now->held[j] = now->values[m->input_vr[j]];
+    now->outputs_valid = 0; /* from here on the outputs are those of another state */
+    double t = now->time + h;
+    if (!isfinite(t)) {
+        char at[64];
+        native_repr(now->time, at, sizeof at);
+        return refuse(s, BRIDGE_ERROR, "step_size: the time t + step_size overflows at t = %s s", at);
+    }
+    double *x = s->scratch_x;
+    memcpy(x, now->x, m->nx * sizeof *x);
+    NativeResult r = new_result(s);
+    int status = m->kind->step(s->sim, x, now->held, now->time, h, &r);
+    double size = 0.0;
+    if (status == BRIDGE_OK) {
+        for (size_t i = 0; i < m->nx; i++) {
+            double a = fabs(x[i]);
+            if (!(a <= size)) size = a; /* NaN wins */
+        }
+        if (!isfinite(size)) status = NATIVE_NOT_FINITE;
+    }
+    /* the culprit of a state beyond the divergence limit: an input that alone moves it beyond (the limit; with
+       none, any input: the largest) */
+    double threshold = isfinite(m->divergence_limit) ? m->divergence_limit : 0.0;
+    if (status == NATIVE_NOT_FINITE) {
+        int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
+        if (j >= 0)
+            return refuse(s, BRIDGE_ERROR, "%s: %.6g makes the state overflow (not finite) at t = %.6g s: the state "
+                                           "diverged; allowed: inputs within the model's range", m->input_names[j],
+                          now->held[j], t);
+        return refuse(s, BRIDGE_ERROR, "state: the state overflows (not finite) at t = %.6g s: the state diverged",
+                      t);
+    }
+    if (status != BRIDGE_OK) return refuse(s, status, "%s", r.message);
+    if (size > m->divergence_limit) {
+        int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
+        if (j >= 0)
+            return refuse(s, BRIDGE_ERROR, "%s: diverged at t = %.6g s (state norm %.3g): %s = %.6g alone moves it "
+                                           "beyond %g (allowed: %s)", m->input_names[j], t, size, m->input_names[j],
+                          now->held[j], m->divergence_limit, m->divergence_allowed);
+        return refuse(s, BRIDGE_ERROR, "state: diverged at t = %.6g s (state norm %.3g) (allowed: %s)", t, size,
+                      m->divergence_allowed);
+    }
+    memcpy(now->x, x, m->nx * sizeof *x);
+    now->time = t;
+    return BRIDGE_OK;
+}
+
+/* ---- values ------------------------------------------------------------------------------------------ */
+
+/* The refusal for the first value reference of `vr` that this call cannot take (the plumbing's order). */
+static int refuse_reference(Slave *s, const char *function, BridgeValueType type, const unsigned int *vr, size_t nvr,
+                            int setting) {
+    for (size_t i = 0; i < nvr; i++) {
+        if (vr[i] >= s->m.n_vars)
+            return refuse(s, BRIDGE_ERROR, "%s: unknown value reference %u (this FMU has 0 .. %zu)", function, vr[i],
+                          s->m.n_vars - 1);
+        const Variable *v = &s->m.vars[vr[i]];
+        if (v->type != (int)type)
+            return refuse(s, BRIDGE_ERROR, "%s: value reference %u is '%s', a %s variable; use fmi2%s%s", function,
+                          vr[i], v->name, TYPE_NAMES[v->type], setting ? "Set" : "Get", TYPE_NAMES[v->type]);
+        if (setting && v->causality == OUTPUT)
+            return refuse(s, BRIDGE_ERROR, "%s: '%s' is an output; outputs cannot be set", function, v->name);
+        if (setting && v->causality == PARAMETER && s->sim)
+            return refuse(s, BRIDGE_ERROR, "%s: %s: a fixed parameter can be set only before "
+                                           "fmi2ExitInitializationMode", function, v->name);
+    }
+    return BRIDGE_OK;
+}
+
+static int get_values(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, void *values) {
+    Slave *s = slave;
+    const char *function = GET_NAMES[type];
+    if (refuse_reference(s, function, type, vr, nvr, 0) != BRIDGE_OK) return BRIDGE_ERROR;
+    for (size_t i = 0; i < nvr; i++) {
+        const Variable *v = &s->m.vars[vr[i]];
+        if (v->causality == OUTPUT && s->sim && !s->now.outputs_valid) {
+            int status = read_outputs(s);
+            if (status != BRIDGE_OK) return status;
+        }
+        double value = v->causality == OUTPUT ? s->now.outputs[v->index] : s->now.values[vr[i]];
+        switch (type) {
+        case VALUE_REAL: ((double *)values)[i] = value; break;
+        case VALUE_INTEGER: ((int *)values)[i] = (int)value; break;
+        case VALUE_BOOLEAN: ((int *)values)[i] = value != 0.0; break;
+        case VALUE_STRING: ((const char **)values)[i] = v->text; break;
+        }
+    }
+    return BRIDGE_OK;
+}
+
+/* A value as the rebuild command takes it (NAME=VALUE) and as the message shows it. */
+static void shown_value(const Variable *v, double value, const char *text, int quoted, char *out, size_t size) {
+    switch (v->type) {
+    case REAL: native_repr(value, out, size); break;
+    case INTEGER: snprintf(out, size, "%d", (int)value); break;
+    case BOOLEAN: snprintf(out, size, "%s", value != 0.0 ? "true" : "false"); break;
+    default: snprintf(out, size, quoted ? "'%s'" : "%s", text ? text : "");
+    }
+}
+
+/* A word as a POSIX shell reads it back: quoted unless it is made of safe characters only. */
+static void shell_word(const char *word, char *out, size_t size) {
+    int safe = *word != '\0';
+    for (const char *c = word; *c; c++)
+        if (!strchr("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=.,/:@%", *c)) safe = 0;
+    if (safe) {
+        snprintf(out, size, "%s", word);
+        return;
+    }
+    size_t k = 0;
+    if (k + 1 < size) out[k++] = '\'';
+    for (const char *c = word; *c && k + 5 < size; c++) {
+        if (*c == '\'') { /* ' -> '\'' */
+            memcpy(out + k, "'\\''", 4);
+            k += 4;
+        } else {
+            out[k++] = *c;
+        }
+    }
+    if (k + 1 < size) out[k++] = '\'';
+    out[k < size ? k : size - 1] = '\0';
+}
+
+/* The command that rebuilds this FMU with `name` = `value`: the model file's rebuild command, its other fixed
+   settings (rebuild.names / rebuild.values) and the new one. */
+static void rebuild_command(const Model *m, const char *name, const char *value, char *out, size_t size) {
+    snprintf(out, size, "%s", m->rebuild);
+    if (!m->rebuild_names) return;
+    for (size_t k = 0; k < m->n_rebuild; k++) {
+        if (strcmp(m->rebuild_names[k], name) == 0) continue;
+        size_t used = strlen(out);
+        snprintf(out + used, size - used, " --set %s=%s", m->rebuild_names[k], m->rebuild_values[k]);
+    }
+    char word[600], assignment[700];
+    snprintf(assignment, sizeof assignment, "%s=%s", name, value);
+    shell_word(assignment, word, sizeof word);
+    size_t used = strlen(out);
+    snprintf(out + used, size - used, " --set %s", word);
+}
+
+static int set_values(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, const void *values) {
+    Slave *s = slave;
+    const char *function = SET_NAMES[type];
+    if (refuse_reference(s, function, type, vr, nvr, 1) != BRIDGE_OK) return BRIDGE_ERROR;
+    for (size_t i = 0; i < nvr; i++) { /* all checked before any is set */
+        const Variable *v = &s->m.vars[vr[i]];
+        double value = 0.0;
+        const char *text = NULL;
+        switch (type) {
+        case VALUE_REAL: value = ((const double *)values)[i]; break;
+        case VALUE_INTEGER: value = ((const int *)values)[i]; break;
+        case VALUE_BOOLEAN: value = ((const int *)values)[i] != 0; break;
+        case VALUE_STRING: text = ((const char *const *)values)[i]; break;
+        }
+        if (type == VALUE_REAL && !isfinite(value)) {
+            char shown[64];
+            native_repr(value, shown, sizeof shown);
+            return refuse(s, BRIDGE_ERROR, "%s: %s: got %s (allowed: a finite number)", function, v->name, shown);
+        }
+        if (type == VALUE_STRING && !text)
+            return refuse(s, BRIDGE_ERROR, "%s: %s: got None (allowed: a UTF-8 string)", function, v->name);
+        if (v->causality == PARAMETER && v->index < 0) { /* fixed at build: its build value only */
+            int same = type == VALUE_STRING ? strcmp(text, v->text) == 0 : value == v->start;
+            if (!same) {
+                char built[512], got[512], plain[512], command[3000];
+                shown_value(v, v->start, v->text, 1, built, sizeof built);
+                shown_value(v, value, text, 1, got, sizeof got);
+                shown_value(v, value, text, 0, plain, sizeof plain);
+                rebuild_command(&s->m, v->name, plain, command, sizeof command);
+                return refuse(s, BRIDGE_ERROR, "%s: %s: got %s, but this native FMU was built with %s = %s, fixed at "
+                                               "build; to use another value rebuild it: %s (or use the Python runtime, "
+                                               "where it is a parameter)", function, v->name, got, v->name, built,
+                              command);
+            }
+        }
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        const Variable *v = &s->m.vars[vr[i]];
+        if (type == VALUE_STRING) continue; /* fixed strings: equal to the build value, checked above */
+        double value = type == VALUE_REAL ? ((const double *)values)[i]
+                       : type == VALUE_INTEGER ? (double)((const int *)values)[i]
+                                               : (double)(((const int *)values)[i] != 0);
+        if (v->causality != PARAMETER || v->index >= 0) s->now.values[vr[i]] = value;
+    }
+    return BRIDGE_OK;
+}
+
+/* ---- FMU states ------------------------------------------------------------------------------------- */
+
+static int get_state(void *slave, void **state) {
+    Slave *s = slave;
+    if (s->sim && !s->now.outputs_valid) {
+        int status = read_outputs(s);
+        if (status != BRIDGE_OK) return status;
+    }
+    Snapshot *copy = malloc(sizeof *copy);
+    if (!copy || snapshot_alloc(&s->m, copy) < 0) {
+        if (copy) snapshot_free(copy);
+        free(copy);
+        return refuse(s, BRIDGE_ERROR, "fmi2GetFMUstate: out of memory");
+    }
+    snapshot_copy(&s->m, copy, &s->now);
+    *state = copy;
+    return BRIDGE_OK;
+}
+
+static void free_state(void *state) {
+    if (!state) return;
+    snapshot_free(state);
+    free(state);
+}
+
+/* The runtime parameters of two value vectors are equal. */
+static int same_parameters(const Model *m, const double *a, const double *b) {
+    for (size_t k = 0; k < m->layout.n_params; k++)
+        if (a[m->rules[k].vr] != b[m->rules[k].vr]) return 0;
+    return 1;
+}
+
+static int set_state(void *slave, void *state) {
+    Slave *s = slave;
+    const Snapshot *from = state;
+    const Model *m = &s->m;
+    void *sim = NULL;
+    if (from->initialised) {
+        if (s->sim && same_parameters(m, from->values, s->now.values)) {
+            sim = s->sim;
+        } else if (!(sim = make_sim(s, from->values, s->scratch_x))) { /* another configuration: its simulator */
+            return BRIDGE_ERROR;
+        }
+    }
+    if (s->sim && sim != s->sim) m->kind->free_sim(s->sim);
+    s->sim = sim;
+    snapshot_copy(m, &s->now, from);
+    s->now.outputs_valid = from->initialised; /* the outputs of the state's last step, as taken */
+    return BRIDGE_OK;
+}
+
+static size_t serialized_size(const Model *m) {
+    return 8 + 4 * 6 + 8 * (2 + m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx);
+}
+
+/* Layout (little-endian): "FXNATIVE", u32 STATE_VERSION, u32 n_vars, u32 n_inputs, u32 n_outputs, u32 nx,
+   u32 flags (1: initialised, 2: outputs valid), f64 time (since the start), f64 start time, f64 values[n_vars]
+   (parameters, inputs; 0 for outputs and strings), f64 held[n_inputs], f64 outputs[n_outputs], f64 x[nx]. */
+static int serialize_state(void *slave, void *state, char *bytes, size_t *size) {
+    Slave *s = slave;
+    const Model *m = &s->m;
+    const Snapshot *st = state;
+    size_t n = serialized_size(m);
+    if (!bytes) {
+        *size = n;
+        return BRIDGE_OK;
+    }
+    if (*size < n) return refuse(s, BRIDGE_ERROR, "fmi2SerializeFMUstate: the buffer is smaller than "
+                                                  "fmi2SerializedFMUstateSize said");
+    unsigned char *b = (unsigned char *)bytes;
+    memcpy(b, STATE_MAGIC, 8);
+    put32(b + 8, STATE_VERSION);
+    put32(b + 12, (uint32_t)m->n_vars);
+    put32(b + 16, (uint32_t)m->layout.n_inputs);
+    put32(b + 20, (uint32_t)m->layout.n_outputs);
+    put32(b + 24, (uint32_t)m->nx);
+    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (st->outputs_valid ? 2 : 0)));
+    unsigned char *at = b + 32;
+    put_f64(at, st->time), at += 8;
+    put_f64(at, st->start_time), at += 8;
+    for (size_t i = 0; i < m->n_vars; i++, at += 8) put_f64(at, st->values[i]);
+    for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) put_f64(at, st->held[i]);
+    for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) put_f64(at, st->outputs[i]);
+    for (size_t i = 0; i < m->nx; i++, at += 8) put_f64(at, st->x[i]);
+    *size = n;
+    return BRIDGE_OK;
+}
+
+static int deserialize_state(void *slave, const char *bytes, size_t size, void **state) {
+    Slave *s = slave;
+    const Model *m = &s->m;
+    const unsigned char *b = (const unsigned char *)bytes;
+    static const char *prefix = "fmi2DeSerializeFMUstate: the bytes are not a state of this FMU";
+    if (size < 32 || memcmp(b, STATE_MAGIC, 8) != 0)
+        return refuse(s, BRIDGE_ERROR, "%s (not a native flexfmu state)", prefix);
+    if (le32(b + 8) != STATE_VERSION)
+        return refuse(s, BRIDGE_ERROR, "%s (state layout version %u, this FMU reads %u)", prefix, (unsigned)le32(b + 8),
+                      STATE_VERSION);
+    if (le32(b + 12) != m->n_vars || le32(b + 16) != m->layout.n_inputs || le32(b + 20) != m->layout.n_outputs
+        || le32(b + 24) != m->nx)
+        return refuse(s, BRIDGE_ERROR, "%s (its sizes are another model's)", prefix);
+    if (size != serialized_size(m)) return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected %zu)",
+                                                  prefix, size, serialized_size(m));
+    uint32_t flags = le32(b + 28);
+    if (flags > 3) return refuse(s, BRIDGE_ERROR, "%s (bad flags)", prefix);
+    Snapshot *st = malloc(sizeof *st);
+    if (!st || snapshot_alloc(m, st) < 0) {
+        if (st) snapshot_free(st);
+        free(st);
+        return refuse(s, BRIDGE_ERROR, "fmi2DeSerializeFMUstate: out of memory");
+    }
+    st->initialised = flags & 1;
+    st->outputs_valid = (flags & 2) != 0;
+    const unsigned char *at = b + 32;
+    st->time = f64_of(at), at += 8;
+    st->start_time = f64_of(at), at += 8;
+    for (size_t i = 0; i < m->n_vars; i++, at += 8) st->values[i] = f64_of(at);
+    for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) st->held[i] = f64_of(at);
+    for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) st->outputs[i] = f64_of(at);
+    for (size_t i = 0; i < m->nx; i++, at += 8) st->x[i] = f64_of(at);
+    const char *bad = NULL;
+    if (!isfinite(st->time) || !isfinite(st->start_time)) bad = "time not finite";
+    for (size_t i = 0; !bad && i < m->n_vars; i++) {
+        const Variable *v = &m->vars[i];
+        if (!isfinite(st->values[i])) bad = "a value is not finite";
+        else if (v->causality == PARAMETER && v->index < 0 && v->type != STRING && st->values[i] != v->start)
+            bad = "its fixed parameters are another build's";
+    }
+    for (size_t i = 0; !bad && i < m->layout.n_inputs; i++) if (!isfinite(st->held[i])) bad = "held inputs not finite";
+    for (size_t i = 0; !bad && i < m->layout.n_outputs; i++) if (!isfinite(st->outputs[i])) bad = "outputs not finite";
+    for (size_t i = 0; !bad && i < m->nx; i++)
+        if (!(fabs(st->x[i]) <= m->divergence_limit)) bad = "the state vector is not finite or beyond the divergence limit";
+    if (bad) {
+        free_state(st);
+        return refuse(s, BRIDGE_ERROR, "%s (%s)", prefix, bad);
+    }
+    *state = st;
+    return BRIDGE_OK;
+}
+
+static int last_successful_time(void *slave, double *time) {
+    Slave *s = slave;
+    *time = s->now.start_time + (s->sim ? s->now.time : 0.0);
+    return BRIDGE_OK;
+}
+
+static const BridgeApi API = {
+    FLEXFMU_BRIDGE_VERSION, start, instantiate, free_instance, setup_experiment, simple_call, do_step,
+    get_values, set_values, get_state, set_state, free_state, serialize_state, deserialize_state,
+    last_successful_time,
+};
+
+/* The front's load_bridge (compiled with FLEXFMU_NATIVE) takes the API from here: nothing is loaded. */
+const BridgeApi *flexfmu_native_api(void) { return &API; }

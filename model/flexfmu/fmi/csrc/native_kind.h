@@ -1,0 +1,113 @@
+/*
+ * native_kind.h - what a model kind plugs into the native runtime (flexfmu_native.c).
+ *
+ * The native bridge (flexfmu_native.c) owns everything an FMU does that does not depend on the model's
+ * equations: the model file (resources/flexfmu_model.bin, format in flexfmu/fmi/native.py and docs/fmu.md),
+ * the variables (value references, types, causality, start values), the checks of set values and of the
+ * runtime parameters' ranges, the structural parameters fixed at build, time, the validity of the state and
+ * the outputs, FMU states and their serialised layout, and the log.  A *kind* (the equations of one family
+ * of models) is one table of function pointers, NativeKind below, registered in flexfmu_native.c's KINDS
+ * array and named by the model file's "kind" entry:
+ *
+ *   load        parse the kind's entries of the model file ("<kind>.*") into a model object shared (read-only)
+ *               by the instance's simulators
+ *   state_size  the length of the state vector x (what an FMU state saves and restores)
+ *   init        a simulator for the runtime parameters' values (already range-checked by the bridge) and its
+ *               initial state x; kind-specific checks of the parameters here
+ *   step        advance x over h with the inputs u held; x is written only on success
+ *   outputs     all outputs (model-file order) of x with u held
+ *   culprit     the input most likely behind a non-finite or diverged state or output (index), or -1 (the
+ *               bridge then names "state")
+ *
+ * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c.  A new kind: its file
+ * (native_<kind>.c) with one `const NativeKind native_<kind>_kind`, its line in KINDS, its writer in
+ * flexfmu/fmi/native.py.
+ *
+ * Thread-safety: a kind's functions are called for one instance at a time (the front locks the instance);
+ * the model object is only read after load; simulators belong to one instance.  No globals.
+ */
+#ifndef FLEXFMU_NATIVE_KIND_H
+#define FLEXFMU_NATIVE_KIND_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* ---- the model file, parsed (flexfmu_native.c) ------------------------------------------------- */
+
+enum { NATIVE_F64 = 1, NATIVE_I32 = 2, NATIVE_STR = 3 };
+#define NATIVE_MAX_DIMS 8
+
+typedef struct {
+    char *name;
+    int type;                           /* NATIVE_F64, NATIVE_I32, NATIVE_STR */
+    int ndim;                           /* 0: a scalar */
+    uint32_t shape[NATIVE_MAX_DIMS];
+    size_t count;                       /* product of shape (1 for a scalar) */
+    void *data;                         /* double[count], int32_t[count] or char *[count] (NUL-terminated) */
+} NativeEntry;
+
+typedef struct NativeFile NativeFile;
+
+/* The entry `name`, or NULL. */
+const NativeEntry *native_entry(const NativeFile *file, const char *name);
+
+/* Typed lookups: 0 and *data on success; else -1 and `why` names the entry and what was expected.  `ndim` is
+   the expected number of dimensions; `shape` (may be NULL) the expected sizes, -1 = any.  `found` (may be NULL)
+   receives the shape. */
+int native_f64(const NativeFile *file, const char *name, int ndim, const long *shape, const double **data,
+               uint32_t *found, char *why, size_t why_size);
+int native_i32(const NativeFile *file, const char *name, int ndim, const long *shape, const int32_t **data,
+               uint32_t *found, char *why, size_t why_size);
+
+/* ---- what a kind sees of the FMU -------------------------------------------------------------- */
+
+typedef struct {
+    size_t n_inputs, n_outputs, n_params;  /* params: the runtime parameters (settable until initialisation) */
+    const char *const *input_names;
+    const char *const *output_names;
+    const char *const *param_names;
+} NativeLayout;
+
+/* What a refused kind call reports (status >= BRIDGE_DISCARD with one message naming the variable), and the
+   status-OK messages it wants logged (note). */
+typedef struct {
+    int status;
+    char message[2048];
+    void (*note)(void *context, const char *text);
+    void *note_context;
+} NativeResult;
+
+/* step: x not finite after the step (x not written); outputs: an output not finite (y written).  The bridge
+   then names the culprit (culprit below) in its message. */
+#define NATIVE_NOT_FINITE 16
+
+typedef struct {
+    const char *name; /* the model file's "kind" */
+    void *(*load)(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size);
+    void (*free_model)(void *model);
+    size_t (*state_size)(const void *model);
+    void *(*init)(const void *model, const double *params, double *x, NativeResult *result);
+    void (*free_sim)(void *sim);
+    int (*step)(void *sim, double *x, const double *u, double t, double h, NativeResult *result);
+    int (*outputs)(void *sim, const double *x, const double *u, double *y, NativeResult *result);
+    /* what: 0 the state after the last step (from x with u): the input whose contribution alone is above
+       `threshold` (the largest), else -1; 1 the outputs of x with u: the input that alone overflows them, else
+       the largest contributor, -1 when all inputs are 0 */
+    int (*culprit)(void *sim, int what, const double *x, const double *u, double threshold);
+} NativeKind;
+
+/* Helpers the bridge offers the kinds: Python's repr of a float ("0.001", "1e-05", "nan", "100.0"), and a
+   status with its message (printf format). */
+void native_repr(double value, char *text, size_t size);
+int native_refuse(NativeResult *result, int status, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+void native_note(NativeResult *result, const char *format, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+#endif

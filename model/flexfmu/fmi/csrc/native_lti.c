@@ -1,0 +1,333 @@
+/*
+ * native_lti.c - the "lti" kind of the native runtime (native_kind.h): a clamped flexible body on a moving base
+ * as the parameter-dependent linear system of lti_kernels.h (flexfmu/native/csrc; coefficients extracted by
+ * flexfmu.native.lti from the library's own maps), for FFRBeam and exported clamped bodies.
+ *
+ * Model-file entries (flexfmu/fmi/native.py writes them from an LtiModel):
+ *   lti.A, lti.B, lti.b, lti.Cx, lti.Cu, lti.y0     float64, the ffx_lti_model coefficient arrays
+ *   lti.quad_row, lti.quad_i, lti.quad_j (int32), lti.quad_value (float64)   the quadratic output terms
+ *   lti.u_from_input  int32 (nu)   the FMU input (index in the FMU's input order) of each u_k
+ *   lti.p_from_input  int32 (np)   the FMU input of each p_k, or -1: fed by a runtime parameter or constant
+ *   lti.p_param       int32 (np)   for p_from_input = -1: the runtime parameter feeding p_k, or -1: p_start
+ *   lti.p_start       float64 (np) the value of a constant p_k
+ *   lti.y_to_output   int32 (ny)   the FMU output (index in the FMU's output order) of each y_k
+ *   lti.internal_step, lti.max_internal_steps   int32 scalars: the runtime parameters with these roles, or -1
+ *   lti.log_split     int32 scalar: 1 = log (status OK) how a communication step is split, when that changes
+ *
+ * A communication step h is one exact zero-order-hold step, or with internal_step > 0 n = ceil(h /
+ * internal_step) equal exact steps (as flexfmu.body.engines.ClampedEngine), refused beyond max_internal_steps
+ * (fmi2Discard when a smaller communication step would do).  The step maps are cached in the simulator for the
+ * last (p, h) by the kernels.
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "flexfmu_bridge.h"
+#include "lti_kernels.h"
+#include "native_kind.h"
+
+#define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
+
+typedef struct {
+    ffx_lti_model kernel;
+    NativeLayout layout;
+    const int32_t *u_from_input, *p_from_input, *p_param, *y_to_output;
+    const double *p_start;
+    int internal_step, max_internal_steps, log_split;
+    int *quadratic;      /* per p_k: appears in a degree-2 monomial with a non-zero coefficient */
+    int *quad_row, *quad_i, *quad_j;
+} LtiModel;
+
+typedef struct {
+    const LtiModel *m;
+    ffx_lti_maps maps;
+    double *work, *p, *u, *y, *params;
+    double internal_step;
+    long cap, last_split;
+    double last_h;       /* internal step of the last step (for the culprit) */
+} LtiSim;
+
+static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
+    LtiModel *m = calloc(1, sizeof *m);
+    if (!m) {
+        snprintf(why, why_size, "out of memory");
+        return NULL;
+    }
+    m->layout = *layout;
+    uint32_t s[NATIVE_MAX_DIMS];
+    const double *A;
+    if (native_f64(file, "lti.A", 3, NULL, &A, s, why, why_size) < 0) goto fail;
+    long nmono = s[0], nx = s[1];
+    if (s[2] != s[1]) {
+        snprintf(why, why_size, "model file entry lti.A is not square");
+        goto fail;
+    }
+    const double *B, *b, *Cx, *Cu, *y0, *quad_value;
+    const int32_t *quad_row, *quad_i, *quad_j, *internal, *cap, *log_split;
+    long shape_B[3] = {nmono, nx, -1};
+    if (native_f64(file, "lti.B", 3, shape_B, &B, s, why, why_size) < 0) goto fail;
+    long nu = s[2];
+    long shape_b[2] = {nmono, nx}, shape_y0[2] = {nmono, -1};
+    if (native_f64(file, "lti.b", 2, shape_b, &b, NULL, why, why_size) < 0
+        || native_f64(file, "lti.y0", 2, shape_y0, &y0, s, why, why_size) < 0)
+        goto fail;
+    long ny = s[1];
+    long shape_Cx[3] = {nmono, ny, nx}, shape_Cu[3] = {nmono, ny, nu};
+    if (native_f64(file, "lti.Cx", 3, shape_Cx, &Cx, NULL, why, why_size) < 0
+        || native_f64(file, "lti.Cu", 3, shape_Cu, &Cu, NULL, why, why_size) < 0
+        || native_f64(file, "lti.quad_value", 1, NULL, &quad_value, s, why, why_size) < 0)
+        goto fail;
+    long nquad = s[0], np = -1;
+    for (long k = 0; k <= nmono; k++) /* np from nmono = 1 + np + np (np + 1) / 2 */
+        if (FFX_LTI_N_MONOMIALS(k) == nmono) np = k;
+    if (np < 0) {
+        snprintf(why, why_size, "model file entry lti.A has %ld monomials, not 1 + np + np (np + 1) / 2", nmono);
+        goto fail;
+    }
+    long nps[1] = {np}, nus[1] = {nu}, nys[1] = {ny}, nqs[1] = {nquad};
+    if (native_i32(file, "lti.quad_row", 1, nqs, &quad_row, NULL, why, why_size) < 0
+        || native_i32(file, "lti.quad_i", 1, nqs, &quad_i, NULL, why, why_size) < 0
+        || native_i32(file, "lti.quad_j", 1, nqs, &quad_j, NULL, why, why_size) < 0
+        || native_i32(file, "lti.u_from_input", 1, nus, &m->u_from_input, NULL, why, why_size) < 0
+        || native_i32(file, "lti.p_from_input", 1, nps, &m->p_from_input, NULL, why, why_size) < 0
+        || native_i32(file, "lti.p_param", 1, nps, &m->p_param, NULL, why, why_size) < 0
+        || native_f64(file, "lti.p_start", 1, nps, &m->p_start, NULL, why, why_size) < 0
+        || native_i32(file, "lti.y_to_output", 1, nys, &m->y_to_output, NULL, why, why_size) < 0
+        || native_i32(file, "lti.internal_step", 0, NULL, &internal, NULL, why, why_size) < 0
+        || native_i32(file, "lti.max_internal_steps", 0, NULL, &cap, NULL, why, why_size) < 0
+        || native_i32(file, "lti.log_split", 0, NULL, &log_split, NULL, why, why_size) < 0)
+        goto fail;
+    m->internal_step = *internal, m->max_internal_steps = *cap, m->log_split = *log_split;
+    long n_in = (long)layout->n_inputs, n_out = (long)layout->n_outputs, n_par = (long)layout->n_params;
+    for (long k = 0; k < nu; k++)
+        if (m->u_from_input[k] < 0 || m->u_from_input[k] >= n_in) goto bad_index;
+    for (long k = 0; k < np; k++)
+        if (m->p_from_input[k] >= n_in || (m->p_from_input[k] < 0 && m->p_param[k] >= n_par)) goto bad_index;
+    if (ny != n_out) goto bad_index;
+    for (long k = 0; k < ny; k++) { /* a permutation of the outputs */
+        if (m->y_to_output[k] < 0 || m->y_to_output[k] >= n_out) goto bad_index;
+        for (long j = 0; j < k; j++)
+            if (m->y_to_output[j] == m->y_to_output[k]) goto bad_index;
+    }
+    if (m->internal_step >= n_par || m->max_internal_steps >= n_par) goto bad_index;
+    /* the kernel takes int arrays */
+    m->quad_row = malloc(sizeof(int) * (size_t)(nquad + 1));
+    m->quad_i = malloc(sizeof(int) * (size_t)(nquad + 1));
+    m->quad_j = malloc(sizeof(int) * (size_t)(nquad + 1));
+    m->quadratic = calloc((size_t)np + 1, sizeof(int));
+    if (!m->quad_row || !m->quad_i || !m->quad_j || !m->quadratic) {
+        snprintf(why, why_size, "out of memory");
+        goto fail;
+    }
+    for (long k = 0; k < nquad; k++) m->quad_row[k] = quad_row[k], m->quad_i[k] = quad_i[k], m->quad_j[k] = quad_j[k];
+    m->kernel = (ffx_lti_model){(int)nx, (int)nu, (int)ny, (int)np, (int)nmono, A, B, b, Cx, Cu, y0, (int)nquad,
+                                m->quad_row, m->quad_i, m->quad_j, quad_value};
+    if (ffx_lti_check_model(&m->kernel) != FFX_LTI_OK) {
+        snprintf(why, why_size, "the model file's lti arrays are inconsistent (sizes or quadratic-term indices)");
+        goto fail;
+    }
+    /* which p enter squared (for naming the culprit of an overflow: the spin enters squared) */
+    long k = 1 + np;
+    size_t sizes[6] = {(size_t)(nx * nx), (size_t)(nx * nu), (size_t)nx, (size_t)(ny * nx), (size_t)(ny * nu),
+                       (size_t)ny};
+    const double *arrays[6] = {A, B, b, Cx, Cu, y0};
+    for (long i = 0; i < np; i++)
+        for (long j = i; j < np; j++, k++)
+            for (int a = 0; a < 6; a++)
+                for (size_t e = 0; e < sizes[a]; e++)
+                    if (arrays[a][(size_t)k * sizes[a] + e] != 0.0) m->quadratic[i] = m->quadratic[j] = 1;
+    return m;
+bad_index:
+    snprintf(why, why_size, "the model file's lti index maps point outside the FMU's variables");
+fail:
+    if (m) {
+        free(m->quad_row);
+        free(m->quad_i);
+        free(m->quad_j);
+        free(m->quadratic);
+    }
+    free(m);
+    return NULL;
+}
+
+static void free_model(void *model) {
+    LtiModel *m = model;
+    if (!m) return;
+    free(m->quad_row);
+    free(m->quad_i);
+    free(m->quad_j);
+    free(m->quadratic);
+    free(m);
+}
+
+static size_t state_size(const void *model) { return (size_t)((const LtiModel *)model)->kernel.nx; }
+
+static void free_sim(void *sim) {
+    LtiSim *s = sim;
+    if (!s) return;
+    free(s->work);
+    free(s->p);
+    free(s->u);
+    free(s->y);
+    free(s->params);
+    free(s);
+}
+
+static void *init(const void *model, const double *params, double *x, NativeResult *r) {
+    const LtiModel *m = model;
+    const ffx_lti_model *k = &m->kernel;
+    LtiSim *s = calloc(1, sizeof *s);
+    size_t n = ffx_lti_maps_work_len(k);
+    if (!s || !(s->work = malloc(sizeof(double) * (n + 1))) || !(s->p = calloc((size_t)k->np + 1, sizeof(double)))
+        || !(s->u = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->y = calloc((size_t)k->ny + 1, sizeof(double)))
+        || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))) {
+        free_sim(s);
+        native_refuse(r, BRIDGE_ERROR, "out of memory");
+        return NULL;
+    }
+    s->m = m;
+    memcpy(s->params, params, m->layout.n_params * sizeof(double));
+    if (ffx_lti_maps_init(&s->maps, k, s->work, n) != FFX_LTI_OK) {
+        free_sim(s);
+        native_refuse(r, BRIDGE_ERROR, "the model's lti arrays are inconsistent");
+        return NULL;
+    }
+    s->internal_step = m->internal_step >= 0 ? params[m->internal_step] : 0.0;
+    s->cap = m->max_internal_steps >= 0 ? (long)params[m->max_internal_steps] : 0;
+    if (s->cap > 0 && s->internal_step > 0 && s->internal_step < MIN_COMMUNICATION_STEP / (double)s->cap) {
+        native_refuse(r, BRIDGE_ERROR, "internal_step: %g s needs more than max_internal_steps = %ld for a %g s "
+                                       "communication step (allowed: 0 (one exact step) or >= %.3g s)",
+                      s->internal_step, s->cap, MIN_COMMUNICATION_STEP, MIN_COMMUNICATION_STEP / (double)s->cap);
+        free_sim(s);
+        return NULL;
+    }
+    memset(x, 0, sizeof(double) * (size_t)k->nx);
+    return s;
+}
+
+/* p and u of the FMU inputs `in` (and the runtime parameters). */
+static void assemble(LtiSim *s, const double *in) {
+    const LtiModel *m = s->m;
+    for (int k = 0; k < m->kernel.nu; k++) s->u[k] = in[m->u_from_input[k]];
+    for (int k = 0; k < m->kernel.np; k++)
+        s->p[k] = m->p_from_input[k] >= 0 ? in[m->p_from_input[k]]
+                  : m->p_param[k] >= 0    ? s->params[m->p_param[k]]
+                                          : m->p_start[k];
+}
+
+/* Python's round_down(x, 4) (flexfmu.core.checks): x > 0 rounded down to 4 significant digits. */
+static double round_down(double x) {
+    if (!(isfinite(x) && x > 0)) return x;
+    double scale = pow(10.0, floor(log10(x)) - 3);
+    return floor(x / scale * (1 - 1e-12)) * scale;
+}
+
+/* Internal steps of a communication step h (>= 1), or 0 after refusing (flexfmu.body.engines.too_many_steps). */
+static long split(LtiSim *s, double t, double h, NativeResult *r) {
+    long n = 1;
+    const char *exact = "exact zero-order hold: one internal step of any length";
+    char why[160];
+    snprintf(why, sizeof why, "%s", exact);
+    if (s->internal_step > 0) {
+        double ratio = h / s->internal_step * (1 - 1e-12);
+        if (!(ratio <= (double)s->cap)) {
+            double h_ok = (double)s->cap * s->internal_step;
+            char count[64];
+            if (isfinite(ratio) && ratio < 1e15) snprintf(count, sizeof count, "%.0f", ceil(ratio));
+            else snprintf(count, sizeof count, "%.3g", ratio);
+            if (h_ok >= MIN_COMMUNICATION_STEP)
+                native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
+                                                 "step of %g s (cap %ld); take a smaller communication step (<= %.4g "
+                                                 "s) or raise max_internal_steps", count, h, s->cap, round_down(h_ok));
+            else
+                native_refuse(r, BRIDGE_ERROR, "internal_step: even a %g s communication step needs more than "
+                                               "max_internal_steps = %ld internal steps (allowed: a smaller value, or "
+                                               "a larger max_internal_steps)", MIN_COMMUNICATION_STEP, s->cap);
+            return 0;
+        }
+        n = (long)ceil(ratio);
+        if (n < 1) n = 1;
+        snprintf(why, sizeof why, "internal_step = %g s (each exact)", s->internal_step);
+    }
+    if (s->m->log_split && n != s->last_split)
+        native_note(r, "t = %.6g s: communication step %g s in %ld internal step(s) of %.4g s: %s", t, h, n,
+                    h / (double)n, why);
+    s->last_split = n;
+    return n;
+}
+
+static int step(void *sim, double *x, const double *in, double t, double h, NativeResult *r) {
+    LtiSim *s = sim;
+    long n = split(s, t, h, r);
+    if (n == 0) return r->status;
+    assemble(s, in);
+    double hi = h / (double)n;
+    s->last_h = hi;
+    int status = ffx_lti_update_step_maps(&s->maps, s->p, hi);
+    if (status == FFX_LTI_OK) status = ffx_lti_steps(&s->maps, s->p, hi, n, x, s->u, x);
+    if (status == FFX_LTI_OK) return BRIDGE_OK;
+    if (status == FFX_LTI_BAD_ARGUMENT)
+        return native_refuse(r, BRIDGE_ERROR, "step_size: %s", ffx_lti_status_string(status));
+    return NATIVE_NOT_FINITE; /* the maps or the state overflow: the bridge names the culprit */
+}
+
+static int outputs(void *sim, const double *x, const double *in, double *y, NativeResult *r) {
+    LtiSim *s = sim;
+    const LtiModel *m = s->m;
+    assemble(s, in);
+    int status = ffx_lti_outputs(&s->maps, s->p, x, s->u, s->y);
+    if (status == FFX_LTI_BAD_ARGUMENT) return native_refuse(r, BRIDGE_ERROR, "%s", ffx_lti_status_string(status));
+    for (int k = 0; k < m->kernel.ny; k++) y[m->y_to_output[k]] = s->y[k];
+    return status == FFX_LTI_OK ? BRIDGE_OK : NATIVE_NOT_FINITE;
+}
+
+/* The held input most likely behind an overflow (as flexfmu.ffr.simulator's _divergence and _output_failure):
+   each linearly acting input scored by its largest contribution (Bd u_j over the last internal step, or Cu u_j
+   in the outputs); the base motion (the inputs feeding p) as one: the largest of them (the spin squared, as it
+   enters), scored by the largest forcing it makes (bd, or y0).  State: the largest score above `threshold`, else
+   -1; outputs: the largest that alone overflows (>= 1e300), else the largest; -1 when all inputs are 0. */
+static int culprit(void *sim, int what, const double *x, const double *in, double threshold) {
+    (void)x;
+    LtiSim *s = sim;
+    const LtiModel *m = s->m;
+    const ffx_lti_model *k = &m->kernel;
+    assemble(s, in);
+    int maps_ok = what == 0 ? ffx_lti_update_step_maps(&s->maps, s->p, s->last_h) == FFX_LTI_OK
+                            : ffx_lti_update_output_maps(&s->maps, s->p) == FFX_LTI_OK;
+    int rows = what == 0 ? k->nx : k->ny;
+    const double *M = what == 0 ? s->maps.Bd : s->maps.Cu, *c = what == 0 ? s->maps.bd : s->maps.y0;
+    int base = -1;
+    double base_size = 0.0;
+    for (int q = 0; q < k->np; q++) {
+        int j = m->p_from_input[q];
+        if (j < 0) continue;
+        double v = fabs(in[j]), size = m->quadratic[q] ? v * v : v;
+        if (size > base_size || (!(size <= base_size) && base < 0)) base = j, base_size = size;
+    }
+    int best = -1;
+    double best_score = 0.0;
+    if (base >= 0) {
+        double score = maps_ok ? 0.0 : INFINITY;
+        for (int i = 0; maps_ok && i < rows; i++)
+            if (!(fabs(c[i]) <= score)) score = fabs(c[i]);
+        best = base, best_score = score;
+    }
+    for (int q = 0; q < k->nu; q++) {
+        int j = m->u_from_input[q];
+        double v = fabs(in[j]), score = 0.0;
+        if (v == 0.0) continue;
+        if (!maps_ok) score = v;
+        for (int i = 0; maps_ok && i < rows; i++) {
+            double contribution = fabs(M[(size_t)i * (size_t)k->nu + (size_t)q] * v);
+            if (!(contribution <= score)) score = contribution; /* NaN, inf win */
+        }
+        if (best < 0 || !(score <= best_score)) best = j, best_score = score;
+    }
+    if (what == 0) return best >= 0 && !(best_score <= threshold) ? best : -1;
+    return best; /* outputs: the largest contributor (one that overflows alone is the largest) */
+}
+
+const NativeKind native_lti_kind = {"lti", load, free_model, state_size, init, free_sim, step, outputs, culprit};
