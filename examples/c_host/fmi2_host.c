@@ -1,8 +1,9 @@
 /* A minimal FMI 2.0 co-simulation host in C: what a non-Python FMI tool does with our FMUs.
  *
- *   fmi2_host [--runs N] [--reload] STEP N_STEPS FMU [FMU...]
+ *   fmi2_host [--runs N] [--reload] [--quiet] STEP N_STEPS FMU [FMU...]
  *   FMU := --fmu UNZIPPED_DIR MODEL_IDENTIFIER GUID
- *          [--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--output VR]...
+ *          [--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]...
+ *          [--output VR]...
  *
  * Each --fmu is dlopen()ed from UNZIPPED_DIR/binaries/linux64/<id>.so (two --fmu may name two
  * different FMUs, or the same one twice).  A run instantiates every FMU, sets the --set start
@@ -10,7 +11,11 @@
  * steps of STEP seconds (the FMUs one after the other, not coupled), printing one CSV line per
  * FMU and step:  run, fmu index, time, the --output values.  Then fmi2Terminate and
  * fmi2FreeInstance for every instance.  --runs N does N runs in sequence, each with new instances;
- * the libraries stay loaded between runs unless --reload (dlclose and dlopen again).
+ * the libraries stay loaded between runs unless --reload (dlclose and dlopen again).  --pulse holds VALUE on
+ * input VR for the steps that start before DURATION s, then 0 (a hammer blow).  --quiet prints only each
+ * FMU's last line per run.  The stepping loop of each run (fmi2SetReal, fmi2DoStep, fmi2GetReal and the
+ * printing) is timed with CLOCK_MONOTONIC and reported on stderr as "fmi2_host: run R: N steps x M FMUs in
+ * S s (C us per cycle)".
  *
  * Every fmi2 status is checked and the FMUs' log messages go to stderr.  The libraries are
  * dlclose()d and main returns normally, so a crash while unloading or at process exit shows as a
@@ -26,6 +31,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "fmi2Functions.h"
 
@@ -50,6 +56,9 @@ typedef struct {
     fmi2ValueReference *out_vr;
     fmi2Real *out;
     int n_out;
+    fmi2ValueReference *pulse_vr;
+    fmi2Real *pulse_value, *pulse_until, *pulse_now;
+    int n_pulse;
     void *lib;
     fmi2Component c;
     fmi2Status worst; /* of the current instance: after fmi2Error no fmi2Terminate, after fmi2Fatal no call */
@@ -159,7 +168,13 @@ static int set_start_values(Fmu *f) {
 }
 
 /* One run: instantiate all, initialise, step, terminate, free.  Returns an exit status. */
-static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps) {
+static double now_s(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, int quiet) {
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     int status = OK, started = 0;
     for (int i = 0; i < n_fmus; i++) {
@@ -180,11 +195,14 @@ static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps) {
             goto cleanup;
         }
     }
+    double start = now_s();
     for (int k = 0; k < n_steps; k++) {
         double t = k * step;
         for (int i = 0; i < n_fmus; i++) {
             Fmu *f = &fmus[i];
+            for (int j = 0; j < f->n_pulse; j++) f->pulse_now[j] = t < f->pulse_until[j] ? f->pulse_value[j] : 0.0;
             if ((f->n_in && !CALL(f, fmi2SetReal, f->in_vr, (size_t)f->n_in, f->in_value)) ||
+                (f->n_pulse && !CALL(f, fmi2SetReal, f->pulse_vr, (size_t)f->n_pulse, f->pulse_now)) ||
                 !CALL(f, fmi2DoStep, t, step, fmi2True)) {
                 status = CALL_FAILED;
                 goto cleanup;
@@ -196,11 +214,15 @@ static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps) {
                 status = CALL_FAILED;
                 goto cleanup;
             }
+            if (quiet && k + 1 < n_steps) continue;
             printf("%d,%d,%.17g", run, i, (k + 1) * step);
             for (int j = 0; j < f->n_out; j++) printf(",%.17g", f->out[j]);
             printf("\n");
         }
     }
+    double elapsed = now_s() - start;
+    fprintf(stderr, "fmi2_host: run %d: %d steps x %d FMUs in %.6f s (%.4f us per cycle)\n", run, n_steps, n_fmus,
+            elapsed, n_steps > 0 ? 1e6 * elapsed / ((double)n_steps * n_fmus) : 0.0);
     for (int i = 0; i < n_fmus; i++)
         if (!CALL0(&fmus[i], fmi2Terminate)) status = CALL_FAILED;
 cleanup:
@@ -218,19 +240,21 @@ cleanup:
 }
 
 static int usage(const char *program, const char *problem) {
-    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] STEP N_STEPS --fmu DIR ID GUID "
-                    "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--output VR]... [--fmu ...]\n",
+    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] [--quiet] STEP N_STEPS --fmu DIR ID GUID "
+                    "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]... "
+                    "[--output VR]... [--fmu ...]\n",
             problem, program);
     return USAGE;
 }
 
 int main(int argc, char **argv) {
     Fmu fmus[MAX_FMUS];
-    int n_fmus = 0, runs = 1, reload = 0, arg = 1;
+    int n_fmus = 0, runs = 1, reload = 0, quiet = 0, arg = 1;
     memset(fmus, 0, sizeof fmus);
     for (; arg < argc && strncmp(argv[arg], "--", 2) == 0 && strcmp(argv[arg], "--fmu") != 0; arg++) {
         if (strcmp(argv[arg], "--runs") == 0 && arg + 1 < argc) runs = atoi(argv[++arg]);
         else if (strcmp(argv[arg], "--reload") == 0) reload = 1;
+        else if (strcmp(argv[arg], "--quiet") == 0) quiet = 1;
         else return usage(argv[0], "unknown option");
     }
     if (argc - arg < 2 || runs < 1) return usage(argv[0], "missing STEP N_STEPS");
@@ -252,6 +276,10 @@ int main(int argc, char **argv) {
             f->in_value = calloc(cap, sizeof *f->in_value);
             f->out_vr = calloc(cap, sizeof *f->out_vr);
             f->out = calloc(cap, sizeof *f->out);
+            f->pulse_vr = calloc(cap, sizeof *f->pulse_vr);
+            f->pulse_value = calloc(cap, sizeof *f->pulse_value);
+            f->pulse_until = calloc(cap, sizeof *f->pulse_until);
+            f->pulse_now = calloc(cap, sizeof *f->pulse_now);
             char absolute[PATH_MAX];
             if (!realpath(f->dir, absolute)) return usage(argv[0], "no such UNZIPPED_DIR");
             snprintf(f->resources, sizeof f->resources, "file://%s/resources", absolute);
@@ -267,6 +295,11 @@ int main(int argc, char **argv) {
             f->in_vr[f->n_in] = (fmi2ValueReference)strtoul(argv[arg + 1], NULL, 10);
             f->in_value[f->n_in++] = strtod(argv[arg + 2], NULL);
             arg += 2;
+        } else if (f && strcmp(argv[arg], "--pulse") == 0 && arg + 3 < argc) {
+            f->pulse_vr[f->n_pulse] = (fmi2ValueReference)strtoul(argv[arg + 1], NULL, 10);
+            f->pulse_value[f->n_pulse] = strtod(argv[arg + 2], NULL);
+            f->pulse_until[f->n_pulse++] = strtod(argv[arg + 3], NULL);
+            arg += 3;
         } else if (f && strcmp(argv[arg], "--output") == 0 && arg + 1 < argc) {
             f->out_vr[f->n_out++] = (fmi2ValueReference)strtoul(argv[arg + 1], NULL, 10);
             arg += 1;
@@ -284,7 +317,7 @@ int main(int argc, char **argv) {
             for (int i = 0; i < n_fmus; i++)
                 if (!unload(&fmus[i]) || !load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
         }
-        status = run_once(fmus, n_fmus, run, step, n_steps);
+        status = run_once(fmus, n_fmus, run, step, n_steps, quiet);
     }
 unload:
     for (int i = 0; i < n_fmus; i++)
@@ -295,6 +328,10 @@ unload:
         free(fmus[i].in_value);
         free(fmus[i].out_vr);
         free(fmus[i].out);
+        free(fmus[i].pulse_vr);
+        free(fmus[i].pulse_value);
+        free(fmus[i].pulse_until);
+        free(fmus[i].pulse_now);
     }
     fprintf(stderr, "fmi2_host: done, exit status %d\n", status);
     return status;
