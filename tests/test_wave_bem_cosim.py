@@ -1,6 +1,6 @@
 """The BEM hydrodynamics of the wave-converter components (``hydrodynamics = "bem"`` on WaveExcitation,
-Hydrostatics and Platform) co-simulated in regular head waves against the frequency-domain RAO of the same
-database (flexfmu.wec.bem.response_amplitude_operator, eq. BEM.2).
+Hydrostatics and Platform) co-simulated in regular head waves and in a JONSWAP sea against the
+frequency-domain RAO of the same database (flexfmu.wec.bem.response_amplitude_operator, eq. BEM.2).
 
 The co-simulation couples the three library simulators (no harvester, no PTO) by a fixed-step
 Gauss-Seidel loop at the example's 1 ms step, the order and hold of flexfmu.cosim.masters' Gauss-Seidel
@@ -111,6 +111,7 @@ def test_cosimulated_rao_matches_the_frequency_domain_rao(ds, period):
 
 
 # irregular sea: JONSWAP Hs 5 cm, Tp 1.7 s (its 64 components span 0.5 .. 3 w_p, 1.85 .. 11.1 rad/s)
+SEA_TP = 1.7         # s
 SEA_STEP = 2e-3      # s: twice the example's step, to afford the record length (see the test's docstring)
 SEA_T_END = 400.0    # s
 SEA_SKIP = 20.0      # s: the 5 s ramp and the start transient left out
@@ -119,11 +120,24 @@ SEA_BAND = 0.05      # the band: Welch bins where the elevation spectrum is >= t
 STEP_BUDGET = 0.02   # the held-load coupling error allowed at SEA_STEP (regular waves at 2 ms: 1.39 % at 1.7 s)
 
 
-def test_irregular_sea_heave_transfer_matches_the_rao(ds):
-    """JONSWAP sea, hydrodynamics = bem: the heave transfer estimate H = S_xy / S_xx between the simulator's
-    own elevation at O (x) and the heave (y) (Welch cross- and auto-spectra) against the complex heave RAO.
+@pytest.fixture(scope="module")
+def irregular_sea():
+    """The JONSWAP co-simulation shared by the irregular-sea tests (run once): times, motion xi (n, 6),
+    elevation eta at O, wall time."""
+    cfg = WaveExcitationConfig(sea_state="jonswap", wave_height=0.05, wave_period=SEA_TP, heading=0.0,
+                               ramp_time=5.0, seed=1, hydrodynamics="bem")
+    start = time.perf_counter()
+    t, xi, eta = cosimulate(SEA_TP, SEA_T_END, SEA_STEP, wave_config=cfg)
+    return t, xi, eta, time.perf_counter() - start
 
-    H rather than |RAO|^2 S_eta against the heave spectrum: the ratio cancels the sea's realisation (the
+
+@pytest.mark.parametrize("dof, name, unit", DOFS, ids=[name for _, name, _ in DOFS])
+def test_irregular_sea_transfer_matches_the_rao(ds, irregular_sea, dof, name, unit):
+    """JONSWAP sea, hydrodynamics = bem: the transfer estimate H = S_xy / S_xx between the simulator's
+    own elevation at O (x) and the motion of one DOF (y: surge, heave, pitch) (Welch cross- and auto-spectra)
+    against the complex RAO.
+
+    H rather than |RAO|^2 S_eta against the response spectrum: the ratio cancels the sea's realisation (the
     component amplitudes and phases) bin by bin, so only the leakage between components is left as random
     error, and the comparison does not depend on the JONSWAP formula.  Its random error per bin is, for
     n_d segment averages and coherence gamma^2 (Bendat & Piersol, Random Data, eq. 9.90),
@@ -131,18 +145,21 @@ def test_irregular_sea_heave_transfer_matches_the_rao(ds):
     bin of the band must agree within STEP_BUDGET + 3 sigma.  scipy's spectra take signals as
     Re(X e^{+i w t}), the database e^{-i w t}: the RAO is compared with conj(H).
 
-    The step: 2 ms instead of 1 ms (half the wall time for a 400 s record).  Measured on this sea, H at
-    2 ms differs from H at 1 ms by <= 0.7 % below 4 rad/s and by <= 1.5 % at the heave resonance
-    (4.4 .. 4.7 rad/s), the first-order coupling error; the 1 ms estimate has the same scatter at the
-    resonance, which is the statistical error, not the step."""
-    tp = 1.7
-    cfg = WaveExcitationConfig(sea_state="jonswap", wave_height=0.05, wave_period=tp, heading=0.0, ramp_time=5.0,
-                               seed=1, hydrodynamics="bem")
-    start = time.perf_counter()
-    t, xi, eta = cosimulate(tp, SEA_T_END, SEA_STEP, wave_config=cfg)
-    elapsed = time.perf_counter() - start
+    Surge has no restoring force and drifts (-0.24 m over the 400 s at a steady ~0.6 mm/s, the mean velocity
+    the start leaves): a ramp below the band, which Welch's (constant) detrend of each segment leaves as
+    leakage too small to show (coherence >= 0.996 in the band away from 4.2 .. 5.0 rad/s).  There the
+    estimate is poor for surge and pitch, and the rule says so through sigma: the pitch resonance at
+    4.71 rad/s has a half-power width of ~0.024 rad/s (B55 ~ 0.52 N m s against I55 + A55 ~ 22 kg m^2),
+    far below the 0.105 rad/s Welch bins (resolution bias: |H| 15.2 against |RAO| 22.5 rad/m), and its free
+    oscillation decays over ~85 s, incoherent with the sea (coherence 0.59); surge couples to it (through
+    A15, B15) and has its notch next to it (|RAO| 0.07 m/m at 4.50 rad/s, coherence 0.32).
+
+    The step: 2 ms instead of 1 ms (half the wall time for a 400 s record).  Measured on this sea, H at 2 ms
+    differs from H at 1 ms by <= 0.9 % below 4 rad/s in all three DOFs, the first-order coupling error, and
+    by <= 1.7 % (heave), 5.8 % (pitch) in 4.3 .. 5.1 rad/s, where the scatter is the statistical error."""
+    t, xi, eta, elapsed = irregular_sea
     sel = t >= SEA_SKIP
-    x, y = eta[sel], xi[sel, 2]
+    x, y = eta[sel], xi[sel, dof]
     fs, nper = 1 / SEA_STEP, round(SEA_SEGMENT / SEA_STEP)
     f, s_xx = signal.welch(x, fs, nperseg=nper)
     _, s_yy = signal.welch(y, fs, nperseg=nper)
@@ -153,25 +170,29 @@ def test_irregular_sea_heave_transfer_matches_the_rao(ds):
     coh = np.abs(s_xy[band]) ** 2 / (s_xx[band] * s_yy[band])
     sigma = np.sqrt((1 - coh) / (n_d * coh))
     _, rao = bem.response_amplitude_operator(ds, BOX.box().rigid_mass_matrix(), 0.0, omega[band])
-    ref = rao[:, 2]
+    ref = rao[:, dof]
     est = np.conj(s_xy[band] / s_xx[band])
     err = np.abs(est - ref) / np.abs(ref)
-    # the response spectrum (printed): heave variance in the band against |RAO|^2 S_eta of the same record
+    # the response spectrum (printed): variance in the band against |RAO|^2 S_eta of the same record
     m0_sim, m0_rao = np.sum(s_yy[band]), np.sum(np.abs(ref) ** 2 * s_xx[band])
-    worst = int(np.argmax(err / (STEP_BUDGET + 3 * sigma)))
-    print(f"\nJONSWAP Hs 0.05 m, Tp {tp} s, seed 1: {SEA_T_END:g} s at {SEA_STEP * 1e3:g} ms ({elapsed:.1f} s wall); "
-          f"{band.sum()} bins {omega[band][0]:.2f} .. {omega[band][-1]:.2f} rad/s, n_d = {n_d}")
-    print(f"  heave H vs RAO: max complex difference {100 * err.max():.2f} % "
+    tol = STEP_BUDGET + 3 * sigma
+    worst = int(np.argmax(err / tol))
+    print(f"\nJONSWAP Hs 0.05 m, Tp {SEA_TP} s, seed 1: {SEA_T_END:g} s at {SEA_STEP * 1e3:g} ms "
+          f"({elapsed:.1f} s wall); {band.sum()} bins {omega[band][0]:.2f} .. {omega[band][-1]:.2f} rad/s, n_d = {n_d}")
+    print(f"  {name} H vs RAO: max complex difference {100 * err.max():.2f} % "
           f"(at {omega[band][np.argmax(err)]:.2f} rad/s), S_xx-weighted mean "
           f"{100 * np.sum(err * s_xx[band]) / np.sum(s_xx[band]):.2f} %, "
           f"sigma {100 * sigma.min():.2f} .. {100 * sigma.max():.2f} %, min coherence {coh.min():.4f}")
     print(f"  worst bin against its tolerance: {omega[band][worst]:.2f} rad/s, {100 * err[worst]:.2f} % "
-          f"<= {100 * (STEP_BUDGET + 3 * sigma[worst]):.2f} %")
-    print(f"  heave variance in the band: spectrum {m0_sim:.4e}, |RAO|^2 S_eta {m0_rao:.4e} "
-          f"(ratio {m0_sim / m0_rao:.4f})")
+          f"<= {100 * tol[worst]:.2f} % ({100 * err[worst] / tol[worst]:.0f} % of it)")
+    print(f"  {name} variance in the band: spectrum {m0_sim:.4e}, |RAO|^2 S_eta {m0_rao:.4e} "
+          f"{unit.split('/')[0]}^2 (ratio {m0_sim / m0_rao:.4f})")
+    for k in range(band.sum()):
+        if err[k] > 0.05:                                  # the poorly estimated bins, for the record
+            print(f"    {omega[band][k]:.3f} rad/s: |H| {abs(est[k]):.4f}, |RAO| {abs(ref[k]):.4f}, "
+                  f"difference {100 * err[k]:.1f} %, sigma {100 * sigma[k]:.1f} %, coherence {coh[k]:.3f}")
     assert band.sum() >= 20
-    assert np.all(err <= STEP_BUDGET + 3 * sigma), [(round(o, 3), round(e, 4), round(s, 4)) for o, e, s in
-                                                     zip(omega[band], err, sigma)]
+    assert np.all(err <= tol), [(round(o, 3), round(e, 4), round(s, 4)) for o, e, s in zip(omega[band], err, sigma)]
 
 
 def test_bad_hydrodynamics_names_the_parameter_and_allowed_values():
