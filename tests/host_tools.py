@@ -50,8 +50,8 @@ def python_environment() -> dict:
       _Py_NoneStruct" from fmi2Instantiate without it).
     - PYTHONHOME: the embedded interpreter otherwise derives its prefix from the first python3 on
       PATH (/usr/bin/python3 in a clean PATH) and fails with "No module named 'math'".
-    - PYTHONPATH: the build venv's site-packages (numba, threadpoolctl, scikit-fem are not in the
-      base interpreter; without them flexfmu would run its numpy fallbacks, i.e. other numerics).
+    - PYTHONPATH: the build venv's site-packages (threadpoolctl, scikit-fem and the other dependencies
+      are not in the base interpreter).
     """
     return {"LD_PRELOAD": str(libpython()), "PYTHONHOME": sys.base_prefix,
             "PYTHONPATH": sysconfig.get_paths()["purelib"]}

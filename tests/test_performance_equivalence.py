@@ -4,7 +4,8 @@ never asserted here):
 * the consistent reframe step in modal space (invariants + step kernel) against the same scheme written
   in physical space (nodal vectors, the full M), and the paper scheme's modal frame transformation
   sum R_ab Psi^T M E_ab Psi against rotating every nodal triplet and expanding back;
-* the compiled (numba) kernels against their numpy versions, in process and with FLEXFMU_NUMBA=0;
+* the C kernels (flexfmu.native.reframe) against their numpy versions, in process and with
+  FLEXFMU_NATIVE_KERNELS=0 (tests/test_native_reframe_kernels.py compares them kernel by kernel);
 * the exact max elastic displacement search against all nodes;
 * FFRBeam's cached affine step / output maps against the term-by-term formulas.
 """
@@ -195,7 +196,7 @@ def test_max_elastic_displacement_search_is_exact(plate):
         assert abs(integ._max_elastic_displacement(q) - all_nodes) <= 1e-14 * max(all_nodes, 1e-300)
 
 
-# --------------------------------------------------------------------------- numba kernels vs numpy
+# --------------------------------------------------------------------------- C kernels vs numpy
 def _kernel_case(beam):
     integ = ReframeIntegrator(beam, modal_basis(beam, 3))
     s = integ.initial_state(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
@@ -204,8 +205,8 @@ def _kernel_case(beam):
     return integ, s, loads
 
 
-@pytest.mark.skipif(not K.NUMBA, reason="numba not installed: the numpy versions are the only ones")
-def test_numba_kernels_equal_numpy_versions(beam):
+@pytest.mark.skipif(not K.NATIVE, reason="C kernels not available: the numpy versions are the only ones")
+def test_c_kernels_equal_numpy_versions(beam):
     integ, s, loads = _kernel_case(beam)
     dt, n = 5e-5, 200
     SV, held = loads.stage_values(s.t, dt, n)
@@ -213,11 +214,11 @@ def test_numba_kernels_equal_numpy_versions(beam):
     pts = np.array([0, 7], dtype=np.int64)
     ka = integ.kernel_arguments(loads, dt, pts)
     args = (ka.P, ka.LP, ka.nf, True, SV, held, 0.0, dt, n, y0)
-    y_nb, t_nb, k_nb, st_nb = K.consistent_steps(*args)
+    y_c, t_c, k_c, st_c = K.consistent_steps(*args)
     y_np, t_np, k_np, st_np = K.consistent_steps_numpy(*args)
-    assert (k_nb, st_nb, t_nb) == (k_np, st_np, t_np) == (n, 0, t_nb)
-    assert _rel(y_nb, y_np) < 1e-12
-    out_args = (ka.P, ka.LP, ka.nf, True, SV[-1, 2], y_nb, ka.PP, ka.Psi, ka.dpn, *ka.umax)
+    assert (k_c, st_c, t_c) == (k_np, st_np, t_np) == (n, 0, t_c)
+    assert _rel(y_c, y_np) < 1e-12
+    out_args = (ka.P, ka.LP, ka.nf, True, SV[-1, 2], y_c, ka.PP, ka.Psi, ka.dpn, *ka.umax)
     assert _rel(K.consistent_outputs(*out_args), K.consistent_outputs_numpy(*out_args)) < 1e-12
     # an empty node order skips the max elastic displacement search: -1 there, every other output unchanged
     skip_args = out_args[:-5] + ka.umax_skip
@@ -234,7 +235,10 @@ def test_layout_module_agrees_with_the_kernels_and_the_snapshot(beam):
     """reframe.layout names P's blocks (the kernels' _offsets) and the outputs' places: the sizes agree, and a
     Snapshot reads each output from the place the kernels write it."""
     for nf in (0, 1, 4, 9):
-        assert tuple(param_layout(nf)) == tuple(K._offsets(nf)) == tuple(getattr(K._offsets, "py_func", K._offsets)(nf))
+        assert tuple(param_layout(nf)) == tuple(K._offsets(nf))
+        if K.NATIVE:                                          # the C kernels' own offsets
+            from flexfmu.native import reframe as native
+            assert native.offsets(nf) == tuple(param_layout(nf))
         assert K.param_size(nf) == param_layout(nf).end
         L = output_layout(nf, 3)
         assert K.output_size(nf, 3) == L.size == L.points.stop
@@ -298,20 +302,20 @@ integ = ReframeIntegrator(beam, modal_basis(beam, 3))
 integ.set_initial(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
 load = PointLoad(beam.nodes.shape[0] - 1, half_sine_pulse([1.0, 0.0, 1.0], 0.005), moment=[0.0, 0.01, 0.0])
 r = integ.run(0.01, 5e-5, load, points=[0, 7], every=50)
-print(json.dumps({"numba": K.NUMBA, "eta": integ.state.eta.tolist(), "R": integ.state.rotation.tolist(),
+print(json.dumps({"native": K.NATIVE, "eta": integ.state.eta.tolist(), "R": integ.state.rotation.tolist(),
                   "acc": r.point_acceleration.tolist(), "umax": r.max_elastic_displacement.tolist()}))
 """
 
 
 def test_numpy_fallback_gives_the_same_numbers():
-    """FLEXFMU_NUMBA=0 (as without numba installed) runs the numpy versions: same results."""
+    """FLEXFMU_NATIVE_KERNELS=0 (as without a C compiler) runs the numpy versions: same results."""
     runs = {}
     for flag in ("0", "1"):
-        env = dict(os.environ, FLEXFMU_NUMBA=flag)
+        env = dict(os.environ, FLEXFMU_NATIVE_KERNELS=flag)
         out = subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT], env=env, capture_output=True, text=True,
                              check=True, cwd=ROOT)
         runs[flag] = json.loads(out.stdout.strip().splitlines()[-1])
-    assert runs["0"]["numba"] is False
+    assert runs["0"]["native"] is False
     for key in ("eta", "R", "acc", "umax"):
         assert _rel(runs["0"][key], runs["1"][key]) < 1e-12, key
 

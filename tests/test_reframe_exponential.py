@@ -188,15 +188,15 @@ def test_angular_momentum_free_tumbling(beam):
         assert dE <= 1e-4
 
 
-# --------------------------------------------------------------------------- (e) numba = numpy
+# --------------------------------------------------------------------------- (e) C = numpy
 def _random_G(nf, rng, scale):
     G = scale * rng.standard_normal((3, 3, nf, nf))
     return 0.5 * (G + G.transpose(1, 0, 2, 3))
 
 
-@pytest.mark.skipif(not K.NUMBA, reason="numba not installed: the numpy versions are the only ones")
+@pytest.mark.skipif(not K.NATIVE, reason="C kernels not available: the numpy versions are the only ones")
 @pytest.mark.parametrize("scheme", ["exponential", "consistent"])
-def test_numba_kernels_equal_numpy_versions(beam, scheme):
+def test_c_kernels_equal_numpy_versions(beam, scheme):
     """reframe_steps / reframe_outputs with geometric stiffness, and the exponential coefficients."""
     mb = modal_basis(beam, 3)
     rng = np.random.default_rng(51)
@@ -209,14 +209,14 @@ def test_numba_kernels_equal_numpy_versions(beam, scheme):
     ka = integ.kernel_arguments(loads, dt, pts)                # EX: empty for the consistent scheme (RK4)
     y0 = np.concatenate((s.position, s.rotation.ravel(), s.eta))
     args = (ka.P, ka.LP, ka.G, ka.EX, ka.nf, True, SV, held, 0.0, dt, n, y0)
-    y_nb, t_nb, k_nb, st_nb = K.reframe_steps(*args)
+    y_c, t_c, k_c, st_c = K.reframe_steps(*args)
     y_np, t_np, k_np, st_np = K.reframe_steps_numpy(*args)
-    assert (k_nb, st_nb) == (k_np, st_np) == (n, 0) and t_nb == t_np
-    assert np.max(np.abs(y_nb - y_np)) <= 1e-12 * np.max(np.abs(y_np))
+    assert (k_c, st_c) == (k_np, st_np) == (n, 0) and t_c == t_np
+    assert np.max(np.abs(y_c - y_np)) <= 1e-12 * np.max(np.abs(y_np))
     assert np.max(np.abs(y_np - y0)) > 1e-6                   # it moved
-    out_args = (ka.P, ka.LP, ka.G, ka.nf, True, SV[-1, 2], y_nb, ka.PP, ka.Psi, ka.dpn, *ka.umax)
-    o_nb, o_np = K.reframe_outputs(*out_args), K.reframe_outputs_numpy(*out_args)
-    assert np.max(np.abs(o_nb - o_np)) <= 1e-12 * np.max(np.abs(o_np))
+    out_args = (ka.P, ka.LP, ka.G, ka.nf, True, SV[-1, 2], y_c, ka.PP, ka.Psi, ka.dpn, *ka.umax)
+    o_c, o_np = K.reframe_outputs(*out_args), K.reframe_outputs_numpy(*out_args)
+    assert np.max(np.abs(o_c - o_np)) <= 1e-12 * np.max(np.abs(o_np))
 
 
 def test_exponential_coefficients_against_eigen_decomposition():
@@ -323,13 +323,13 @@ integ = ReframeIntegrator(beam, modal_basis(beam, 3), scheme="exponential", geom
 integ.set_initial(omega0=(5.0, 2.0, 8.0), qd0=(1e-3, -2e-3, 1e-3))
 load = PointLoad(12, half_sine_pulse([1.0, 0.0, 1.0], 0.005), moment=[0.0, 0.01, 0.0])
 r = integ.run(0.02, 1e-3, load, points=[0, 7], every=5)
-print(json.dumps({"numba": K.NUMBA, "eta": integ.state.eta.tolist(), "R": integ.state.rotation.tolist(),
+print(json.dumps({"native": K.NATIVE, "eta": integ.state.eta.tolist(), "R": integ.state.rotation.tolist(),
                   "acc": r.point_acceleration.tolist()}))
 """
 
 
 def test_numpy_fallback_gives_the_same_numbers():
-    """FLEXFMU_NUMBA=0 (as without numba installed): the exponential scheme with geometric stiffness gives
+    """FLEXFMU_NATIVE_KERNELS=0 (as without a C compiler): the exponential scheme with geometric stiffness gives
     the same results."""
     import json
     import os
@@ -339,10 +339,10 @@ def test_numpy_fallback_gives_the_same_numbers():
 
     runs = {}
     for flag in ("0", "1"):
-        out = subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT], env=dict(os.environ, FLEXFMU_NUMBA=flag),
+        out = subprocess.run([sys.executable, "-c", _FALLBACK_SCRIPT], env=dict(os.environ, FLEXFMU_NATIVE_KERNELS=flag),
                              capture_output=True, text=True, check=True, cwd=Path(__file__).resolve().parents[1])
         runs[flag] = json.loads(out.stdout.strip().splitlines()[-1])
-    assert runs["0"]["numba"] is False
+    assert runs["0"]["native"] is False
     for key in ("eta", "R", "acc"):
         a, b = np.array(runs["0"][key]), np.array(runs["1"][key])
         assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b)), key

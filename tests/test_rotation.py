@@ -178,9 +178,10 @@ def test_rodrigues_matches_scipy_and_expm():
 
 def test_the_rodrigues_and_skew_implementations_agree():
     """The hot-path Rodrigues of the paper scheme (core.vec3, matrix products) and the reframe kernels'
-    element-wise one (numpy and compiled) are the same formula: equal up to rounding, and equal to
+    element-wise one (numpy and C) are the same formula: equal up to rounding, and equal to
     rotation_matrix(phi).T and scipy.  The unchecked skew, the checked one and wec.wave's are one."""
     from flexfmu.core import vec3
+    from flexfmu.native import reframe as native
     from flexfmu.reframe import kernels, kernels_numpy
     from flexfmu.wec import wave
 
@@ -191,9 +192,8 @@ def test_the_rodrigues_and_skew_implementations_agree():
         R_ref = Rotation.from_rotvec(phi).as_matrix()
         R_vec3 = vec3.rodrigues(phi)
         R_np = kernels_numpy._rodrigues(phi)
-        R_nb = np.empty(9)
-        kernels._rod9(phi, R_nb)
-        for R in (R_vec3, R_np, R_nb.reshape(3, 3), rotation_matrix(phi).T):
+        compiled = [native.rodrigues(phi).reshape(3, 3)] if kernels.NATIVE else []      # the C kernels' own
+        for R in (R_vec3, R_np, *compiled, rotation_matrix(phi).T):
             np.testing.assert_allclose(R, R_ref, rtol=0, atol=1e-14)
         np.testing.assert_allclose(R_np, R_vec3, rtol=0, atol=4e-16)
         assert np.array_equal(skew(phi), vec3.skew(phi)) and wave._skew is vec3.skew

@@ -4,7 +4,7 @@ Every FMU instance and CLI run of the default plate otherwise repeats the mesh, 
 the sparse modal analysis (seconds); the in-process ``lru_cache`` of the simulators does not survive
 the process.  Entries are ``.npz`` files (arrays only, no pickle) in ``<cache root>/models/``
 (:func:`cache_root`: ``$FLEXFMU_CACHE_DIR``, else ``$XDG_CACHE_HOME/flexfmu``, else
-``~/.cache/flexfmu``; the numba kernel cache lives in ``<cache root>/numba``).
+``~/.cache/flexfmu``; the compiled C kernels live in ``<cache root>/native``, flexfmu.native.compiler).
 
 * The key is a SHA-256 of a canonical JSON of what the data depends on (the caller's choice: a
   model spec and its options, or a digest of a model's arrays) plus the flexfmu version and
@@ -41,7 +41,7 @@ def enabled() -> bool:
 
 def cache_root() -> Path:
     """Per-user cache folder of flexfmu: $FLEXFMU_CACHE_DIR, else $XDG_CACHE_HOME/flexfmu, else
-    ~/.cache/flexfmu (the same rule as flexfmu.reframe.kernels.cache_root, which would import numba)."""
+    ~/.cache/flexfmu (flexfmu.fmi.loader.cache_root repeats the rule: it cannot import flexfmu)."""
     explicit = os.environ.get("FLEXFMU_CACHE_DIR")
     if explicit:
         return Path(explicit)

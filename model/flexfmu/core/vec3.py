@@ -27,8 +27,8 @@ def rodrigues(phi) -> np.ndarray:
     """exp(skew(phi)) as I + a K + b K K, K = skew(phi) (= scipy ``Rotation.from_rotvec(phi).as_matrix()``;
     series for a, b below 1e-4 rad).  phi: float (3,) array, unchecked.
 
-    The compiled reframe kernels (flexfmu.reframe.kernels) evaluate the same formula element by element,
-    K K = phi phi^T - |phi|^2 I, because numba compiles that form; the two differ in rounding only
+    The reframe kernels (flexfmu.reframe.kernels, numpy and C) evaluate the same formula element by element,
+    K K = phi phi^T - |phi|^2 I, the form of the C kernels' loops; the two differ in rounding only
     (tests/test_rotation.py compares them), and each scheme keeps its own so its numbers do not change."""
     th2 = float(phi @ phi)
     th = math.sqrt(th2)

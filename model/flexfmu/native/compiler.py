@@ -72,17 +72,34 @@ _LOCK = threading.Lock()
 _LOADED: dict[str, ctypes.CDLL] = {}
 
 
+def _library_folders() -> list[Path]:
+    """Where compiled libraries are kept: ``<cache root>/native``, else (read-only home) a per-user folder in
+    the system temp folder."""
+    from flexfmu.core.cache import cache_root
+    user = getattr(os, "getuid", lambda: "user")()
+    return [Path(cache_root()) / "native", Path(tempfile.gettempdir()) / f"flexfmu-{user}" / "native"]
+
+
 def load_kernels(name: str, sources) -> ctypes.CDLL:
     """The shared library ``name`` of C ``sources``, compiled once per source digest into the cache
-    (``<cache root>/native/<name>-<digest>.so``) and loaded once per process."""
-    from flexfmu.core.cache import cache_root
+    (``<cache root>/native/<name>-<digest>.so``; the system temp folder when the cache is not writable) and
+    loaded once per process.  Raises CompilerError when it must be compiled and cannot be."""
     sources = [Path(s) for s in sources]
     key = f"{name}-{sources_digest(sources)}"
     with _LOCK:
         lib = _LOADED.get(key)
         if lib is None:
-            path = Path(cache_root()) / "native" / f"{key}.so"
-            if not path.is_file():
-                compile_shared(sources, path)
+            folders = _library_folders()
+            path = next((f / f"{key}.so" for f in folders if (f / f"{key}.so").is_file()), None)
+            if path is None:
+                failures = []
+                for folder in folders:
+                    try:
+                        path = compile_shared(sources, folder / f"{key}.so")
+                        break
+                    except OSError as exc:            # a folder that cannot be written: the next one
+                        failures.append(f"{folder}: {exc}")
+                else:
+                    raise CompilerError("no writable folder for the compiled kernels (" + "; ".join(failures) + ")")
             lib = _LOADED[key] = ctypes.CDLL(str(path))
         return lib

@@ -111,7 +111,7 @@ __all__ = [
 
 # --------------------------------------------------------------------------- small helpers
 def _kernels():
-    """flexfmu.reframe.kernels, imported on first use (it imports numba when available)."""
+    """flexfmu.reframe.kernels, imported on first use (its kernels load, or compile, the C library on first use)."""
     from flexfmu.reframe import kernels as _reframe_kernels
 
     return _reframe_kernels

@@ -1,22 +1,26 @@
 """Hot loops of the consistent and exponential reframe schemes (:mod:`flexfmu.reframe.integrator`): whole RK4 or
 ETD-RK4 steps and the outputs of one state, in modal space, on flat arrays.
 
-Compiled with numba when it is installed (``pip install flexfmu[perf]``; compiled code cached on disk in
-the flexfmu cache folder, keyed by this file's content) and run as plain numpy code otherwise, or with ``FLEXFMU_NUMBA=0`` in the
-environment.  Both run this very source; ``.py_func`` of a compiled kernel is its numpy version
-(tests/test_performance_equivalence.py checks that they agree).
+Two implementations of the same equations: C (flexfmu/native/csrc/reframe_kernels.c, the one compiled
+implementation, called here through ctypes by :mod:`flexfmu.native.reframe` and linked into native FMUs) and
+numpy (:mod:`flexfmu.reframe.kernels_numpy`, the reference; tests/test_native_reframe_kernels.py compares
+them).  The public names (``consistent_steps``, ``reframe_steps``, ``consistent_outputs``,
+``reframe_outputs``, ``max_node_norm``) are the C ones when a C compiler is available or the library is
+already in the cache (compiled once per source digest into ``<cache root>/native``,
+flexfmu.native.compiler), else the numpy ones; ``FLEXFMU_NATIVE_KERNELS=0`` in the environment forces numpy.
+``*_numpy`` are always the numpy ones.  :data:`NATIVE` (bound on first use, as the kernels: the library is
+loaded, and compiled if needed, then) says which; :data:`NATIVE_REASON` why not C.
 
-Files: this module holds the numba set-up, the helpers both versions share and the kernels' public names
-(``consistent_steps``, ``reframe_steps``, ``consistent_outputs``, ``reframe_outputs``: compiled when numba
-is there; ``*_numpy``: always the numpy ones); flexfmu.reframe.kernels_numpy the numpy versions;
-kernels_nb_step and kernels_nb_outputs the compiled ones.
+This module holds the scalar helpers of the numpy kernels (the C file has their twins: ffx_reframe_rodrigues,
+_rate_coefficient, _solve3, _quaternion, _offsets, _bound, _block_norm, _max_node_norm) and the public names.
 
 Everything here is O(n_modes^2) per step whatever the mesh size, except :func:`max_node_norm`
-(O(number of nodes) in the worst case, a few nodes in practice: see its docstring).
+(O(number of nodes) in the worst case, a few nodes in practice: see :func:`max_node_norm_blocks`).
 
 Layouts of the flat arrays: ``P`` (model parameters), ``y`` (state) and the outputs of one state are
-declared in :mod:`flexfmu.reframe.layout` (``_offsets`` below is its compiled twin for ``P``).  The
-integrator (``ReframeIntegrator._setup_consistent``, ``_kernel_loads``, ``_point_data``) builds the others:
+declared in :mod:`flexfmu.reframe.layout` (``_offsets`` below gives ``P``'s offsets); the C header
+flexfmu/native/csrc/reframe_kernels.h documents all of them for C callers.  The integrator
+(``ReframeIntegrator._setup_consistent``, ``_kernel_loads``, ``_point_data``) builds the others:
 
 * ``LP`` loads, one block of 5 + 6 nf per load: follower (0/1), rotational DOFs (0/1), arm
   X_i - c (3), translational rows of Phi at the node (3*nf), rotational rows (3*nf, zeros if none).
@@ -26,91 +30,21 @@ integrator (``ReframeIntegrator._setup_consistent``, ``_kernel_loads``, ``_point
 * ``EX`` exponential-scheme coefficients for one dt (nf, 6, 2, 2 row-major: E1, E2, A2, B1, B2, B4 of
   :func:`flexfmu.reframe.schemes.exponential_coefficients`) or empty: classical RK4 (consistent scheme).
 * ``PP`` output points, one row [X - c (3), translational rows of Phi (3*nf)] each.
+
+The C kernels need C-contiguous float64 arrays (int64 for the node order), which is how the integrator and
+flexfmu.body.free make them; other arrays are converted per call (correct, slower).
 """
 from __future__ import annotations
 
-import hashlib
 import math
 import os
+import warnings
 
 import numpy as np
 
 
-def cache_root() -> str:
-    """Per-user cache folder of flexfmu (flexfmu.core.cache.cache_root: $FLEXFMU_CACHE_DIR, else
-    $XDG_CACHE_HOME/flexfmu, else ~/.cache/flexfmu)."""
-    from flexfmu.core.cache import cache_root as root
-    return str(root())
-
-
-_WANT_NUMBA = os.environ.get("FLEXFMU_NUMBA", "1").strip().lower() not in ("0", "false", "no", "off")
-try:
-    if not _WANT_NUMBA:
-        raise ImportError("disabled by FLEXFMU_NUMBA=0")
-    import numba as _numba
-
-    # Reassociation and FMA contraction (vectorised loops) but no "no NaN / no Inf" assumptions: the
-    # kernels check finiteness.
-    _FASTMATH = {"contract", "reassoc", "nsz", "arcp"}
-
-    from numba.core import caching as _nb_caching
-
-    #: the files whose functions are compiled: one digest over all of them keys the cache, since the
-    #: kernels in one call the helpers in another and numba does not track that
-    _KERNEL_FILES = tuple(os.path.join(os.path.dirname(os.path.abspath(__file__)), name)
-                          for name in ("kernels.py", "kernels_nb_step.py", "kernels_nb_outputs.py"))
-    _digest = hashlib.sha256()
-    for _file in _KERNEL_FILES:
-        with open(_file, "rb") as _source:
-            _digest.update(_source.read())
-    _SOURCE_DIGEST = _digest.hexdigest()
-
-    class _SourceHashLocator(_nb_caching._CacheLocator):
-        """numba cache for the kernel files keyed by their content, not their path.  Every FMU extraction bundles
-        flexfmu into a new folder, and numba's path-keyed cache would recompile these kernels
-        (25-50 s) in each; keyed by content, one compile serves all copies of the same source."""
-
-        def __init__(self, lineno: int):
-            self._path = os.path.join(cache_root(), "numba", _SOURCE_DIGEST[:24])
-            self._lineno = lineno
-
-        def get_cache_path(self):
-            return self._path
-
-        def get_source_stamp(self):
-            return _SOURCE_DIGEST
-
-        def get_disambiguator(self):
-            return str(self._lineno)
-
-        @classmethod
-        def from_function(cls, py_func, py_file):
-            if os.path.abspath(py_file) not in _KERNEL_FILES:
-                return None
-            locator = cls(py_func.__code__.co_firstlineno)
-            try:
-                locator.ensure_cache_path()
-            except OSError:   # read-only home: numba falls back to its own locators
-                return None
-            return locator
-
-    for _impl in (_nb_caching.CompileResultCacheImpl, _nb_caching.CodeLibraryCacheImpl):
-        if _SourceHashLocator not in _impl._locator_classes:
-            _impl._locator_classes = [_SourceHashLocator, *_impl._locator_classes]
-
-    def _jit(fn):
-        return _numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=_FASTMATH)(fn)
-
-    NUMBA = True
-except ImportError:      # pure numpy: the same functions, interpreted
-    def _jit(fn):
-        return fn
-
-    NUMBA = False
-
-def _py(fn):
-    """The numpy versions: never compiled (numba would turn their small np.dot calls into BLAS calls)."""
-    return fn
+#: FLEXFMU_NATIVE_KERNELS=0 (false, no, off): the numpy kernels even when the C library is available
+_WANT_NATIVE = os.environ.get("FLEXFMU_NATIVE_KERNELS", "1").strip().lower() not in ("0", "false", "no", "off")
 
 
 #: below this rotation angle Eq. (22)'s coefficient uses its series (as flexfmu.core.rotation)
@@ -121,8 +55,8 @@ N_RIGID = 6
 # --------------------------------------------------------------------------- small 3-vector helpers
 def _rodrigues_into(phi, R):
     """exp(skew(phi)) into the row-major (9,) array R: I + a K + b K K with K K = phi phi^T - |phi|^2 I,
-    element by element so numba compiles it (flexfmu.core.vec3.rodrigues, used by the paper scheme, is
-    the same formula with matrix products: equal up to rounding, compared in tests/test_rotation.py)."""
+    element by element as the C kernels' ffx_reframe_rodrigues (flexfmu.core.vec3.rodrigues, used by the paper
+    scheme, is the same formula with matrix products: equal up to rounding, compared in tests/test_rotation.py)."""
     th2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
     th = math.sqrt(th2)
     if th < 1e-4:
@@ -143,11 +77,6 @@ def _rodrigues_into(phi, R):
     R[7] = a * x + b * y * z
 
 
-#: the compiled version, for the numba kernels (the numpy kernels call the interpreted one)
-_rod9 = _jit(_rodrigues_into)
-
-
-@_jit
 def _rate_coefficient(th):
     """c(theta) of Eq. (22) (as flexfmu.core.rotation.rotvec_rate_coefficient)."""
     if th < _SERIES_THETA:
@@ -157,7 +86,6 @@ def _rate_coefficient(th):
     return (1.0 - half * math.cos(half) / math.sin(half)) / (th * th)
 
 
-@_jit
 def _solve3(S, r):
     """S x = r for a 3x3 S (Gaussian elimination with partial pivoting)."""
     A = S.copy()
@@ -190,8 +118,8 @@ def _solve3(S, r):
 
 
 # --------------------------------------------------------------------------- model pieces
-@_jit
 def _offsets(nf):
+    """Start offsets of P's blocks (J0, A, B, C, D, k, c, A6, A6inv, com, end), as ffx_reframe_offsets."""
     o_J0 = 1
     o_A = o_J0 + 9
     o_B = o_A + nf * 9
@@ -218,7 +146,6 @@ BLOCK = 16
 NOT_COMPUTED = -1.0
 
 
-@_py
 def max_node_norm_numpy(Psi, col, dpn, order, bc, br, sc, sr, q):
     """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...): all
     nodes, vectorised (the numpy version of :func:`max_node_norm`)."""
@@ -231,7 +158,6 @@ def max_node_norm_numpy(Psi, col, dpn, order, bc, br, sc, sr, q):
     return float(np.max(np.sqrt(np.einsum("ic,ic->i", u, u))))
 
 
-@_jit
 def _block_norm(Psi, col, dpn, order, b, q, best):
     nf = q.shape[0]
     stop = min((b + 1) * BLOCK, order.shape[0])
@@ -250,7 +176,6 @@ def _block_norm(Psi, col, dpn, order, b, q, best):
     return best
 
 
-@_jit
 def _bound(C, r, b, q, qn):
     """Upper bound of |Phi_i q| over the nodes of a (super)block: |C_b q| + r_b |q| (C_b: the block's mean
     of Phi_i (3 x nf, row-major), r_b >= max |Phi_i - C_b|_F)."""
@@ -265,12 +190,12 @@ def _bound(C, r, b, q, qn):
     return (math.sqrt(s) + r[b] * qn) * (1.0 + 1e-12)
 
 
-@_jit
-def max_node_norm(Psi, col, dpn, order, bc, br, sc, sr, q):
+def max_node_norm_blocks(Psi, col, dpn, order, bc, br, sc, sr, q):
     """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...),
-    exactly, without visiting every node.  Nodes in ``order`` (a space-filling curve) form blocks of
-    BLOCK nodes and superblocks of BLOCK blocks, each with the mean C of its Phi_i and a radius r >=
-    max |Phi_i - C|_F, so |C q| + r |q| bounds |Phi_i q| inside it.  Only (super)blocks whose bound
+    exactly, without visiting every node: the algorithm of the C kernels' ffx_reframe_max_node_norm, here in
+    plain Python as its reference (tests; the numpy kernels use :func:`max_node_norm_numpy`).  Nodes in
+    ``order`` (a space-filling curve) form blocks of BLOCK nodes and superblocks of BLOCK blocks, each with
+    the mean C of its Phi_i and a radius r >= max |Phi_i - C|_F, so |C q| + r |q| bounds |Phi_i q| inside it.  Only (super)blocks whose bound
     reaches the maximum found so far are searched: O(n_nodes / BLOCK^2) bounds plus a few blocks in
     practice (mode shapes are smooth); all nodes in the worst case."""
     nf = q.shape[0]
@@ -302,7 +227,6 @@ def max_node_norm(Psi, col, dpn, order, bc, br, sc, sr, q):
     return best
 
 
-@_jit
 def _quaternion(R):
     """(w, x, y, z), w >= 0, of the body -> global R (as flexfmu.reframe.integrator.quaternion_from_rotation)."""
     tr = R[0, 0] + R[1, 1] + R[2, 2]
@@ -356,20 +280,49 @@ def output_size(nf: int, n_points: int) -> int:
     return output_layout(nf, n_points).size
 
 
-#: the kernels the integrator calls, compiled when numba is installed, and their numpy versions (tests
-#: compare them).  Bound on first use: the modules holding them import this one for its helpers.
-_KERNELS = ("consistent_steps", "reframe_steps", "consistent_outputs", "reframe_outputs")
-if not NUMBA:
-    max_node_norm = max_node_norm_numpy               # noqa: F811
+#: the kernels the integrator calls: C when the library is available (see the module docstring), numpy
+#: otherwise; ``*_numpy`` always numpy.  Bound on first use (loading, or compiling, the library then).
+_KERNELS = ("consistent_steps", "reframe_steps", "consistent_outputs", "reframe_outputs", "max_node_norm")
+
+
+def _native():
+    """The C bindings (flexfmu.native.reframe) with the library loaded, or the reason they are not used."""
+    if not _WANT_NATIVE:
+        return None, "disabled by FLEXFMU_NATIVE_KERNELS=0"
+    try:
+        from flexfmu.native import reframe as native
+        native.library()
+    except Exception as exc:          # CompilerError (no compiler, does not compile), OSError (cannot load)
+        reason = f"C kernels unavailable: {exc}".strip()
+        warnings.warn(f"flexfmu: {reason}; the reframe kernels run as numpy (about 30x slower per step). "
+                      "Install a C compiler (gcc, clang) or set FLEXFMU_NATIVE_KERNELS=0 to silence this.",
+                      RuntimeWarning, stacklevel=3)
+        return None, reason
+    return native, None
+
+
+def _use_native() -> bool:
+    if "NATIVE" not in globals():
+        native, reason = _native()
+        globals().update(NATIVE=native is not None, NATIVE_REASON=reason)
+    return NATIVE
 
 
 def __getattr__(name):
+    if name in ("NATIVE", "NATIVE_REASON"):
+        _use_native()
+        return globals()[name]
     base = name[:-len("_numpy")] if name.endswith("_numpy") else name
     if base not in _KERNELS:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    if NUMBA and base == name:
-        from flexfmu.reframe import kernels_nb_outputs, kernels_nb_step
-        value = getattr(kernels_nb_step if "steps" in base else kernels_nb_outputs, "_nb_" + base)
+    if base == "max_node_norm":
+        value = max_node_norm_numpy
+        if name == base and _use_native():
+            from flexfmu.native import reframe as native
+            value = native.max_node_norm
+    elif name == base and _use_native():
+        from flexfmu.native import reframe as native
+        value = getattr(native, base)
     else:
         from flexfmu.reframe import kernels_numpy
         value = getattr(kernels_numpy, base)

@@ -1,9 +1,7 @@
-"""The numpy versions of the reframe kernels (:mod:`flexfmu.reframe.kernels`): the reference the compiled
-ones are checked against (tests/test_performance_equivalence.py), and the kernels themselves when numba is
-not installed.  Import the kernels from flexfmu.reframe.kernels, which picks the version.
-
-Never compiled: numba would turn their small np.dot calls into BLAS calls.  The small scalar helpers
-they share with the compiled kernels are the compiled ones (flexfmu.reframe.kernels)."""
+"""The numpy versions of the reframe kernels (:mod:`flexfmu.reframe.kernels`): the reference the C kernels
+(flexfmu/native/csrc/reframe_kernels.c) are checked against (tests/test_native_reframe_kernels.py), and the
+kernels themselves when the C library is not available or with FLEXFMU_NATIVE_KERNELS=0.  Import the kernels
+from flexfmu.reframe.kernels, which picks the version; the small scalar helpers are there too."""
 from __future__ import annotations
 
 import math
@@ -14,7 +12,6 @@ from flexfmu.reframe.layout import param_layout
 from flexfmu.reframe.kernels import (
     N_RIGID,
     NOT_COMPUTED,
-    _py,
     _quaternion,
     _rate_coefficient,
     _rodrigues_into,
@@ -23,7 +20,6 @@ from flexfmu.reframe.kernels import (
 )
 
 
-@_py
 def _cross(a, b):
     r = np.empty(3)
     r[0] = a[1] * b[2] - a[2] * b[1]
@@ -32,7 +28,6 @@ def _cross(a, b):
     return r
 
 
-@_py
 def _rodrigues(phi):
     """exp(skew(phi)) as a (3, 3) array (numpy kernels)."""
     R = np.empty(9)
@@ -40,14 +35,12 @@ def _rodrigues(phi):
     return R.reshape(3, 3)
 
 
-@_py
 def _rotvec_rate(phi, w):
     th = math.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
     pxw = _cross(phi, w)
     return w + 0.5 * pxw + _rate_coefficient(th) * _cross(phi, pxw)
 
 
-@_py
 def _blocks(P, nf, q):
     """A(q), J(q), D(q) of the generalised mass matrix [[m I, A, 0], [A^T, J, D], [0, D^T, I]]."""
     lay = param_layout(nf)
@@ -61,7 +54,6 @@ def _blocks(P, nf, q):
     return A, J, D
 
 
-@_py
 def _solve_mass(m, A, J, D, b1, b2, b3):
     """Solve [[m I, A, 0], [A^T, J, D], [0, D^T, I]] [x1; x2; x3] = [b1; b2; b3] (Schur complement on x2)."""
     nf = D.shape[1]
@@ -79,7 +71,6 @@ def _solve_mass(m, A, J, D, b1, b2, b3):
     return x1, x2, x3
 
 
-@_py
 def _dTdq(P, nf, v, w, q, qd):
     """dT/dq_j = v^T A_j w + w^T B_j w + sum_k q_k w^T C_jk w + w^T D_j qdot."""
     lay = param_layout(nf)
@@ -91,7 +82,6 @@ def _dTdq(P, nf, v, w, q, qd):
     return t1 + t2 + t3 + t4
 
 
-@_py
 def _loads(LP, nf, deformed, sv, R, q):
     """Global force sum, body moment about the frame point, flexible generalised forces of one stage."""
     F_g = np.zeros(3)
@@ -124,7 +114,6 @@ def _loads(LP, nf, deformed, sv, R, q):
     return F_g, N_b, Q
 
 
-@_py
 def _geometric_force(G, nf, w, q):
     """-(sum_ab X_ab G_ab) q with X = skew(w) skew(w) = w w^T - |w|^2 I (the geometric-stiffness hook;
     G: (9 nf nf,) = (3, 3, nf, nf) row-major, body frame)."""
@@ -136,7 +125,6 @@ def _geometric_force(G, nf, w, q):
     return -np.dot(Kg, q)
 
 
-@_py
 def _rhs(P, LP, G, nf, deformed, sv, Rn, z, split):
     """Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q] (the consistent scheme, flexfmu.reframe.integrator).
 
@@ -173,7 +161,6 @@ def _rhs(P, LP, G, nf, deformed, sv, Rn, z, split):
     return out
 
 
-@_py
 def _expmap(EX, nf, k, z, s):
     """[s z_frame; M_j (q_j, p_j) per mode]: matrix k of the exponential scheme's coefficients EX (nf, 6,
     2, 2 row-major) on the flexible pairs, the scalar s (its value for L = 0) on the 12 frame components."""
@@ -187,7 +174,6 @@ def _expmap(EX, nf, k, z, s):
     return out
 
 
-@_py
 def _step(P, LP, G, EX, nf, deformed, sv, dt, y):
     """One step of y in place (flexfmu.reframe.integrator): classical RK4 (EX empty, scheme "consistent") or the
     exponential ETD-RK4 (EX = its coefficients, scheme "exponential"); False if not finite."""
@@ -252,7 +238,6 @@ def _step(P, LP, G, EX, nf, deformed, sv, dt, y):
     return True
 
 
-@_py
 def reframe_steps(P, LP, G, EX, nf, deformed, SV, held, t, dt, n, y):
     """n steps from state y at time t.  G: geometric stiffness (9 nf^2,) or empty; EX: exponential-scheme
     coefficients for this dt (24 nf,) or empty (RK4, the consistent scheme).  SV: (n, 3, n_loads, 6), or
@@ -271,19 +256,16 @@ def reframe_steps(P, LP, G, EX, nf, deformed, SV, held, t, dt, n, y):
     return y, t, n, 0
 
 
-@_py
 def consistent_steps(P, LP, nf, deformed, SV, held, t, dt, n, y):
     """:func:`reframe_steps` of the consistent scheme without geometric stiffness."""
     return reframe_steps(P, LP, np.zeros(0), np.zeros(0), nf, deformed, SV, held, t, dt, n, y)
 
 
-@_py
 def consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
     """:func:`reframe_outputs` without geometric stiffness."""
     return reframe_outputs(P, LP, np.zeros(0), nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr)
 
 
-@_py
 def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, sc, sr):
     """All outputs of state y with load values sv (n_loads, 6) at its time (G: as :func:`reframe_steps`).
     PP: output points, one row
@@ -367,10 +349,3 @@ def reframe_outputs(P, LP, G, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, 
         out[b + 12:b + 15] = np.dot(R, v + _cross(w, X))
         out[b + 15:b + 18] = np.dot(R, a_o + _cross(alpha, X) + _cross(w, _cross(w, X)))
     return out
-
-
-# =========================================================================== compiled (numba) versions
-# The same computations as the numpy functions above, written as explicit loops over preallocated
-# arrays (numba turns np.dot on 3-vectors into BLAS calls and every temporary into an allocation,
-# which cost more than the arithmetic at these sizes).  3x3 matrices are row-major 9-vectors, D(q) is
-# row-major (3, nf).  Used when numba is installed; tests check they match the numpy versions.

@@ -10,9 +10,10 @@
   displacement (1), then per output point position, velocity, acceleration and their rigid parts
   (6 x 3).
 
-The parameter offsets are computed by the kernels' compiled ``_offsets(nf)`` (numba code cannot call this
-module, and a kernel cached on disk must not depend on another file's constants); :func:`param_layout`
-names them.  The output positions are written by the output kernels; tests/test_performance_equivalence.py
+The parameter offsets are computed by the kernels' ``_offsets(nf)`` (flexfmu.reframe.kernels; the C kernels'
+twin ffx_reframe_offsets, flexfmu/native/csrc/reframe_kernels.h, is compared with it in
+tests/test_performance_equivalence.py); :func:`param_layout` names them.  The output positions are written
+by the output kernels; tests/test_performance_equivalence.py
 checks that they are where :func:`output_layout` says.
 """
 from __future__ import annotations
@@ -41,11 +42,11 @@ class ParamLayout(NamedTuple):
 
 @lru_cache(maxsize=64)
 def param_layout(nf: int) -> ParamLayout:
-    """Offsets of ``P`` for nf flexible modes: the compiled kernels' own ``_offsets`` (one definition;
-    imported here on first use, as the kernels import numba)."""
+    """Offsets of ``P`` for nf flexible modes: the kernels' own ``_offsets`` (one definition; imported here on
+    first use, as flexfmu.reframe.kernels_numpy imports this module)."""
     from flexfmu.reframe.kernels import _offsets
 
-    return ParamLayout(*(int(o) for o in getattr(_offsets, "py_func", _offsets)(nf)))
+    return ParamLayout(*(int(o) for o in _offsets(nf)))
 
 
 class _StateLayout(NamedTuple):

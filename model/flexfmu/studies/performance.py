@@ -59,13 +59,14 @@ def machine() -> dict:
     import scipy
 
     from flexfmu.reframe import kernels as kern
-    numba_version = None
-    if kern.NUMBA:
-        import numba
-        numba_version = numba.__version__
+    if kern.NATIVE:
+        from flexfmu.native.compiler import KERNEL_FLAGS, find_compiler
+        flags = " ".join(f for f in KERNEL_FLAGS if f.startswith(("-O", "-ffp")))
+        kernels = f"C ({Path(find_compiler()).name} {flags})"
+    else:
+        kernels = f"numpy ({kern.NATIVE_REASON})"
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "numba": numba_version or "not used (numpy kernels)",
-            "platform": platform.platform()}
+            "scipy": scipy.__version__, "kernels": kernels, "platform": platform.platform()}
 
 
 # --------------------------------------------------------------------------- reframe
@@ -495,13 +496,13 @@ def run(quick: bool) -> tuple[list, list, dict]:
     row("reframe step, m = 16, exponential scheme (FMU default), batched", fmt_t(batch_exp), "20 µs",
         batch_exp / 20e-6, "same dt")
     del expo
-    if kern.NUMBA:
+    if kern.NATIVE:
         kern_backup = kern.consistent_steps
         kern.consistent_steps = kern.consistent_steps_numpy
         _, batch_np, _, _ = reframe_step_times(small, n=200)
         kern.consistent_steps = kern_backup
-        row("reframe step, m = 16, numpy fallback (FLEXFMU_NUMBA=0)", fmt_t(batch_np), fmt_t(batch), batch_np / batch,
-            "vs numba")
+        row("reframe step, m = 16, numpy fallback (FLEXFMU_NATIVE_KERNELS=0)", fmt_t(batch_np), fmt_t(batch),
+            batch_np / batch, "vs C")
     big_div = (40, 6, 2) if quick else (70, 8, 2)
     big, info_b = _plate_integrator(big_div)
     _, batch_big, outs_big, outs_lean_big = reframe_step_times(big)
@@ -661,7 +662,7 @@ def write_report(path: Path, rows, extra, mach, quick, elapsed):
         " same numbers.",
         "",
         f"Machine: {mach['cpu']}, {mach['cores']} cores; Python {mach['python']}, numpy {mach['numpy']}, "
-        f"scipy {mach['scipy']}, numba {mach['numba']}; {mach['platform']}.",
+        f"scipy {mach['scipy']}, reframe kernels {mach['kernels']}; {mach['platform']}.",
         "",
         "| figure | ours | peer or limit | ratio | note |",
         "|---|---|---|---|---|",
@@ -670,7 +671,7 @@ def write_report(path: Path, rows, extra, mach, quick, elapsed):
     lines += ["", "## Scaling (plate, consistent scheme, batched steps of 1e-4 s or the RK4 limit)", "",
               "Each row in a fresh process: set-up = mesh + assembly, modal basis (computed, not cached), "
               "reframe invariants; peak memory = the process's peak resident set (the smallest rows show the "
-              "baseline of the interpreter and its imports: numpy, scipy, scikit-fem, numba/LLVM).", "",
+              "baseline of the interpreter and its imports: numpy, scipy, scikit-fem).", "",
               "| varied | modes m | DOFs | step | outputs of a state | mesh + assembly | modal basis | invariants "
               "| set-up total | peak memory |",
               "|---|---|---|---|---|---|---|---|---|---|"]

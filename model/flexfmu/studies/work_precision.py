@@ -864,7 +864,7 @@ def machine() -> str:
 
 # --------------------------------------------------------------------------- driver
 def _warm_up() -> None:
-    """Compile the numba kernels and fill import caches before anything is timed."""
+    """Load (on first use: compile) the C kernels and fill import caches before anything is timed."""
     from flexfmu.reframe.models import load_model
     from flexfmu.reframe.integrator import ReframeIntegrator
     rod = load_model("beam:spatial_double_L", elements_per_segment=2)
