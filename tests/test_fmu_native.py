@@ -699,7 +699,8 @@ def test_cli_builds_a_native_fmu_and_refuses_what_has_no_native_form(tmp_path):
     assert run.returncode == 0, run.stderr
     starts = {v.name: v.start for v in read_model_description(str(tmp_path / "FFRBeam.fmu")).modelVariables}
     assert (starts["boundary"], starts["n_modes"]) == ("FXF", "4")
-    for args, words in ((["--runtime", "native", "--fmu", "ReframeBody"], ["ReframeBody", "--runtime python"]),
+    for args, words in ((["--runtime", "native", "--fmu", "ReframeBody", "--set", "scheme=consistent"],
+                         ["scheme", "exponential", "--runtime python"]),
                         (["--runtime", "native", "--set", "integrator=rk4"], ["integrator", "exact"]),
                         (["--runtime", "native", "--set", "nonsense=1"], ["nonsense"]),
                         (["--set", "boundary=XFX"], ["--runtime native"])):

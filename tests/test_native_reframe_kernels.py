@@ -501,8 +501,8 @@ def test_a_c_program_calls_the_header_as_documented(C, tmp_path):
     exe = tmp_path / "caller"
     src = tmp_path / "caller.c"
     src.write_text(_C_CALLER)
-    subprocess.run([find_compiler(), *KERNEL_FLAGS, f"-I{CSRC}", str(src), str(CSRC / "reframe_kernels.c"), "-o",
-                    str(exe), "-lm"], check=True, capture_output=True)
+    subprocess.run([find_compiler(), *KERNEL_FLAGS, f"-I{CSRC}", str(src), str(CSRC / "reframe_kernels.c"),
+                    str(CSRC / "lti_kernels.c"), "-o", str(exe), "-lm"], check=True, capture_output=True)
     lines = subprocess.run([str(exe), "4", "2", str(case.n), str(data)], check=True, capture_output=True,
                            text=True).stdout.split("\n")
     end, size, a6 = map(int, lines[0].split())
@@ -513,3 +513,34 @@ def test_a_c_program_calls_the_header_as_documented(C, tmp_path):
                                               case.dt, case.n, case.y)
     assert (int(status), int(done), float(t)) == (st_py, k_py, t_py) == (0, case.n, t_py)
     assert np.array_equal(y, y_py)
+
+
+# ------------------------------------------------------------------------- exponential-scheme coefficients
+@pytest.mark.parametrize("dt", [1e-5, 1e-4, 1e-3, 2.5e-3])
+def test_exponential_coefficients_equal_the_scipy_reference(C, dt):
+    """ffx_reframe_exponential_coefficients (ffx_lti_expm of the 8x8 augmented blocks) against
+    schemes.exponential_coefficients_scipy (scipy.linalg.expm), per mode and matrix relative to its largest
+    entry: the paper plate's 10 modes (25 .. 577 Hz, 5 % damping) and modes from zero stiffness to 1e9 rad^2/s^2."""
+    from flexfmu.native import reframe as native
+    from flexfmu.reframe import schemes
+    from flexfmu.reframe.simulator import ReframeBodySimulator
+
+    integ = ReframeBodySimulator().integrator
+    cases = [(integ._kF, integ._cF),
+             (np.array([0.0, 1.0, 4e2, 3.7e5, 1e7]), np.array([0.0, 0.1, 2.0, 60.0, 3e2]))]
+    for k, c in cases:
+        a = native.exponential_coefficients(k, c, dt)
+        b = schemes.exponential_coefficients_scipy(k, c, dt)
+        err = np.abs(a - b).max(axis=(2, 3)) / np.abs(b).max(axis=(2, 3))
+        assert err.max() <= 5e-13, (dt, err.max())
+    # the library's entry point takes the C port when the C kernels are in use
+    assert np.array_equal(schemes.exponential_coefficients(integ._kF, integ._cF, dt),
+                          native.exponential_coefficients(integ._kF, integ._cF, dt)) or not K.NATIVE
+
+
+def test_exponential_coefficients_of_no_modes_and_bad_steps():
+    from flexfmu.errors import ParameterError
+    from flexfmu.native import reframe as native
+    assert native.exponential_coefficients([], [], 1e-3).shape == (0, 6, 2, 2)
+    with pytest.raises(ParameterError, match="dt"):
+        native.exponential_coefficients([1e4], [1.0], float("nan"))

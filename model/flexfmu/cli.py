@@ -497,7 +497,7 @@ def build_parser() -> argparse.ArgumentParser:
                             "native: one C-only FMU (no Python) of --fmu, its model fixed by --set at build "
                             "(docs/fmu.md, 'Native runtime')")
     build.add_argument("--fmu", default=None, metavar="NAME",
-                       help="native: the registry FMU to build (default FFRBeam; ReframeBody has no native form yet)")
+                       help="native: the registry FMU to build: FFRBeam (default) or ReframeBody (scheme exponential)")
     build.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                        help="native: a parameter's value, fixed at build (repeatable; e.g. --set boundary=XFX)")
     build.add_argument("--name", default=None, metavar="ID",

@@ -95,15 +95,14 @@ TYPES = {"Real": 0, "Integer": 1, "Boolean": 2, "String": 3}
 CAUSALITIES = {"parameter": 0, "input": 1, "output": 2}
 LO_OPEN, HI_OPEN, INTEGER, SPECIAL = 1, 2, 4, 8
 #: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
-_FRONT = ("native_front.c", "flexfmu_native.c", "native_lti.c")
+_FRONT = ("native_front.c", "flexfmu_native.c", "native_lti.c", "native_reframe.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "flexfmu_bridge.h", "native_kind.h", "native_platform.h")
-_KERNELS = ("lti_kernels.c",)
-_KERNEL_HEADERS = ("lti_kernels.h",)
+_KERNELS = ("lti_kernels.c", "reframe_kernels.c")
+_KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 #: FMU specs with a native form (flexfmu.fmi.registry names), and why the others have none yet
-NATIVE_FMUS = ("FFRBeam",)
-NOT_YET = {"ReframeBody": "a free body: the native runtime has no reframe kind yet (csrc/native_kind.h: one table "
-                          "of functions per kind)"}
+NATIVE_FMUS = ("FFRBeam", "ReframeBody")
+NOT_YET: dict = {}
 
 
 # ---------------------------------------------------------------------------------------------- the model file
@@ -221,6 +220,9 @@ class NativeSource:
     runtime: tuple
     lti: object
     experiment: dict
+    kind: str = "lti"
+    #: the kind's entries for kinds other than "lti": a function (inputs, outputs, params) -> {name: value}
+    kind_entries: object = None
     messages: list = field(default_factory=list)
     divergence_limit: float = math.inf
     divergence_allowed: str = "inputs within the model's range"
@@ -311,7 +313,7 @@ def model_entries(source: NativeSource, guid: str, slave) -> dict:
         if rule.special is not None and not math.isfinite(rule.replacement):
             raise ParameterError(rule.name, "a special value without a finite replacement")
     entries = {
-        "kind": "lti", "model": source.name, "guid": guid,
+        "kind": source.kind, "model": source.name, "guid": guid,
         "var.name": names, "var.type": np.array(types, np.int32), "var.causality": np.array(causalities, np.int32),
         "var.index": np.array(index, np.int32), "var.start": np.array(start, float), "var.start_string": texts,
         "param.lo": np.array([r.lo for r in rules], float), "param.hi": np.array([r.hi for r in rules], float),
@@ -327,7 +329,10 @@ def model_entries(source: NativeSource, guid: str, slave) -> dict:
         "rebuild.values": [shlex.quote(v) for v in source.rebuild_settings.values()],
         "messages": [str(m) for m in source.messages],
     }
-    entries.update(_lti_entries(source.lti, inputs, outputs, params, source))
+    if source.kind == "lti":
+        entries.update(_lti_entries(source.lti, inputs, outputs, params, source))
+    else:
+        entries.update(source.kind_entries(inputs, outputs, params))
     return entries
 
 
@@ -454,7 +459,8 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | `native_front.c` | the FMI 2.0 front (`flexfmu_fmi2.c`) in its native variant (`FLEXFMU_NATIVE`) |
 | `flexfmu_fmi2.c`, `flexfmu_bridge.h` | the front: entry points, call-sequence table, FMU-state header, logging |
 | `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
-| `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the model kind: a clamped body as a parameter-dependent LTI system |
+| `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
+| `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
 | `native_platform.h` | Windows: locks and the library's own path |
 | `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
 
@@ -474,11 +480,12 @@ The library is written to `binaries/<platform>/` (`win64/{name}.dll`, `darwin64/
   `-DCMAKE_OSX_ARCHITECTURES="arm64;x86_64"` for one library that runs on both (FMI 2.0 names both darwin64).
 - **Linux**: gcc or clang; the library links libc, libm, libpthread and libdl only.
 
-Without CMake: compile `native_front.c flexfmu_native.c native_lti.c lti_kernels.c` into one shared library
+Without CMake: compile `native_front.c flexfmu_native.c native_lti.c native_reframe.c lti_kernels.c
+reframe_kernels.c` into one shared library
 named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
 symbol visibility (only the fmi2* functions are exported) and libm, e.g.
 `cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_native.c
-native_lti.c lti_kernels.c -o {name}.so -lm -lpthread -ldl`.
+native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c -o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """
@@ -542,7 +549,7 @@ def build_native_fmu(source: NativeSource, target) -> Path:
         frozen = {k: v for k, v in slave.fmu._values.items() if k not in runtime_names}
         model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)
         binary = compile_binary()
-        info = {"version": __version__, "runtime": "native", "model": source.name, "kind": "lti", "guid": guid,
+        info = {"version": __version__, "runtime": "native", "model": source.name, "kind": source.kind, "guid": guid,
                 "format_version": FORMAT_VERSION, "parameters_fixed": frozen,
                 "runtime_parameters": sorted(runtime_names), **source.info}
         members = {
@@ -613,6 +620,8 @@ def registry_source(name: str = "FFRBeam", settings: dict | None = None, *, mode
         if key not in defaults:
             raise ParameterError(key, "not a parameter of " + name, ", ".join(defaults))
         values[key] = _parse_value(key, text, defaults[key])
+    if name == "ReframeBody":
+        return _reframe_source(spec, values, defaults, model_name)
     return _ffrbeam_source(spec, values, defaults, model_name)
 
 
@@ -636,6 +645,72 @@ def _ffrbeam_source(spec, values: dict, defaults: dict, model_name: str) -> Nati
         divergence_allowed="inputs within the linear model's range; spin below the first bending frequency",
         rebuild=rebuild, rebuild_settings=settings,
         info={"source": f"flexfmu.fmi.registry {spec.name}", "fit_error": lti.fit_error})
+
+
+#: the reframe kind's runtime-parameter roles (csrc/native_reframe.c, reframe.role)
+_REFRAME_ROLES = ("damping_ratio", "tolerance", "internal_step", "max_internal_steps", "v0_x", "v0_y", "v0_z",
+                  "omega0_1", "omega0_2", "omega0_3", "force_follows_body")
+
+
+def _reframe_source(spec, values: dict, defaults: dict, model_name: str) -> NativeSource:
+    """ReframeBody (scheme "exponential") as the reframe kind (csrc/native_reframe.c): the arrays its Python
+    simulator passes to the kernels, written once; the model (model, n_flexible_modes, f_max, the load and output
+    points, scheme) fixed at build; damping_ratio and tolerance too when n_flexible_modes = -1 (the modes chosen
+    depend on them)."""
+    from flexfmu.reframe import simulator as rs
+
+    config = spec.config_class(**values)
+    if config.scheme != "exponential":
+        raise ParameterError("scheme", f"native: got {config.scheme!r}; the native reframe kind steps the exponential "
+                             "scheme only", "exponential (--runtime python for the other schemes)")
+    sim = rs.ReframeBodySimulator(config)
+    integ = sim.integrator
+    nf = integ.data.nf
+    auto = config.n_flexible_modes == -1
+    omega = np.sqrt(integ._kF)
+    finite = "a finite number"
+    lo, hi = rs.TOLERANCE_RANGE
+    runtime = [RuntimeParameter("internal_step", 0.0, allowed="0 (automatic) or a step > 0 s"),
+               _max_internal_steps(),
+               *(RuntimeParameter(n, allowed=finite) for n in rs._INITIAL),
+               RuntimeParameter("force_follows_body")]
+    if not auto:
+        # damping enters the kernels only as c_F = 2 zeta omega (flexfmu.linalg.modal_basis): recomputed at run time
+        zeta = float(config.damping_ratio)
+        if np.array_equal(integ._cF, 2.0 * np.full(nf, zeta) * omega):
+            runtime.insert(0, RuntimeParameter("damping_ratio", 0.0, 1.0, hi_open=True,
+                                               allowed="0 <= damping_ratio < 1"))
+        runtime.insert(1, RuntimeParameter("tolerance", lo, hi, hi_open=True,
+                                           allowed=f"{lo:g} <= tolerance < {hi:g} (relative)"))
+    names = {p.name for p in runtime}
+    settings = {k: _cli_text(v) for k, v in values.items() if v != defaults[k] and k not in names}
+    rebuild = f"flexfmu build --runtime native --fmu {spec.name}" + (f" --name {model_name}"
+                                                                     if model_name != spec.name else "")
+    order, bc, br, sc, sr = integ._umax
+    LP = np.array(integ._kernel_loads(sim._loads), dtype=float)
+    PP = np.array(integ._point_data(sim._points), dtype=float).reshape(1, 3 + 3 * nf)
+
+    def entries(inputs, outputs, params):
+        if list(inputs) != list(rs.INPUT_NAMES):
+            raise ParameterError("reframe", "the FMU's inputs are not ReframeBody's", ", ".join(rs.INPUT_NAMES))
+        columns = [int(sim._columns[rs.OUTPUT_NAMES.index(name)]) for name in outputs]
+        return {
+            "reframe.P": np.array(integ._P, dtype=float), "reframe.LP": LP, "reframe.PP": PP,
+            "reframe.omega": omega, "reframe.Psi": np.ascontiguousarray(integ._Psi_c),
+            "reframe.order": np.asarray(order, np.int32), "reframe.bc": bc, "reframe.br": br,
+            "reframe.sc": sc, "reframe.sr": sr,
+            "reframe.int": np.array([nf, integ.data.dpn, int(integ.deformed_load_arm), int(sim._accepts_moment), 1, 0],
+                                    np.int32),
+            "reframe.real": np.array([sim._arm, sim._J_min, sim._size, integ.data.mass], float),
+            "reframe.columns": np.array(columns, np.int32),
+            "reframe.role": np.array([params.index(n) if n in params else -1 for n in _REFRAME_ROLES], np.int32),
+            "reframe.fixed": np.array([float(getattr(config, n)) for n in _REFRAME_ROLES], float),
+        }
+
+    return NativeSource(
+        name=model_name, description=spec.description, spec=spec, values=values, runtime=tuple(runtime), lti=None,
+        experiment=dict(spec.experiment), kind="reframe", kind_entries=entries, messages=list(sim.messages),
+        rebuild=rebuild, rebuild_settings=settings, info={"source": f"flexfmu.fmi.registry {spec.name}"})
 
 
 def _cli_text(value) -> str:

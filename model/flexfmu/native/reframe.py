@@ -28,9 +28,9 @@ from flexfmu.native.compiler import CSRC, load_kernels
 
 __all__ = ["library", "reframe_steps", "consistent_steps", "reframe_outputs", "consistent_outputs",
            "max_node_norm", "offsets", "rodrigues", "rate_coefficient", "solve3", "quaternion", "bound",
-           "block_norm", "ABI_VERSION", "N_RIGID", "BLOCK", "work_size"]
+           "block_norm", "exponential_coefficients", "ABI_VERSION", "N_RIGID", "BLOCK", "work_size"]
 
-SOURCES = (CSRC / "reframe_kernels.c",)
+SOURCES = (CSRC / "reframe_kernels.c", CSRC / "lti_kernels.c")   # lti: ffx_lti_expm (exponential coefficients)
 #: FFX_REFRAME_ABI_VERSION of the header these bindings follow
 ABI_VERSION = 1
 N_RIGID = 6
@@ -74,6 +74,8 @@ def _declare(lib) -> None:
     lib.ffx_reframe_solve3.restype = None
     lib.ffx_reframe_quaternion.argtypes = [_P, _P]
     lib.ffx_reframe_quaternion.restype = None
+    lib.ffx_reframe_exponential_coefficients.argtypes = [c_int, _P, _P, c_double, _P, _P]
+    lib.ffx_reframe_exponential_coefficients.restype = c_int
     lib.ffx_reframe_abi_version.argtypes = []
     lib.ffx_reframe_abi_version.restype = c_int
 
@@ -460,3 +462,28 @@ def block_norm(Psi, col, dpn, order, b, q, best) -> float:
         raise ValueError("reframe kernels: Psi, col, dpn and order of inconsistent shapes")
     return library().ffx_reframe_block_norm(Psi.ctypes.data, int(Psi.shape[1]), int(col), int(dpn), order.ctypes.data,
                                             int(order.size), int(b), _as_buffer(q, nf, "q"), nf, float(best))
+
+
+#: FFX_REFRAME_EXPONENTIAL_WORK_SIZE
+EXPONENTIAL_WORK_SIZE = 128 + 536
+
+
+def exponential_coefficients(stiffness, damping, dt: float) -> np.ndarray:
+    """flexfmu.reframe.schemes.exponential_coefficients (shape (nf, 6, 2, 2)) by the C port
+    (ffx_reframe_exponential_coefficients); ParameterError when a coefficient is not finite."""
+    from flexfmu.errors import ParameterError
+
+    k = np.ascontiguousarray(stiffness, dtype=float).reshape(-1)
+    c = np.ascontiguousarray(damping, dtype=float).reshape(-1)
+    nf = k.size
+    if c.size != nf:
+        raise ParameterError("damping", f"{c.size} values for {nf} modes", "one per mode")
+    out = np.zeros((nf, 6, 2, 2))
+    if nf == 0:
+        return out
+    work = np.empty(EXPONENTIAL_WORK_SIZE)
+    status = library().ffx_reframe_exponential_coefficients(nf, k.ctypes.data, c.ctypes.data, float(dt),
+                                                            out.ctypes.data, work.ctypes.data)
+    if status != 0 or not np.all(np.isfinite(out)):
+        raise ParameterError("dt", f"{dt!r} s gives non-finite exponential propagators", "a finite time step > 0 (s)")
+    return out

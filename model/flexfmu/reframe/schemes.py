@@ -27,7 +27,8 @@ from flexfmu.core.vec3 import rodrigues as _rodrigues
 from flexfmu.core.vec3 import skew as _skew
 from flexfmu.reframe.results import ReframeState
 
-__all__ = ["Scheme", "ConsistentScheme", "ExponentialScheme", "PaperScheme", "make", "exponential_coefficients"]
+__all__ = ["Scheme", "ConsistentScheme", "ExponentialScheme", "PaperScheme", "make", "exponential_coefficients",
+           "exponential_coefficients_scipy"]
 
 
 def _rotvec_rate(phi, w):
@@ -38,6 +39,17 @@ def _rotvec_rate(phi, w):
 
 
 def exponential_coefficients(stiffness, damping, dt: float) -> np.ndarray:
+    """:func:`exponential_coefficients_scipy` computed by its C port (flexfmu.native.reframe, the one the native
+    FMUs link) when the C kernels are in use (flexfmu.reframe.kernels.NATIVE; ``FLEXFMU_NATIVE_KERNELS=0``: the
+    scipy reference).  Equal to ~1e-15 relative (tests/test_native_reframe_kernels.py)."""
+    from flexfmu.reframe import kernels
+    if kernels._use_native():
+        from flexfmu.native import reframe as native
+        return native.exponential_coefficients(stiffness, damping, dt)
+    return exponential_coefficients_scipy(stiffness, damping, dt)
+
+
+def exponential_coefficients_scipy(stiffness, damping, dt: float) -> np.ndarray:
     """Per-mode 2x2 matrices of the exponential scheme's ETD-RK4 step (module docstring), shape
     (nf, 6, 2, 2): E1 = e^{hL_j}, E2 = e^{hL_j/2}, A2 = (h/2) phi_1(hL_j/2), B1 = h (phi_1 - 3 phi_2 +
     4 phi_3), B2 = h (2 phi_2 - 4 phi_3), B4 = h (4 phi_3 - phi_2) (phi_k at hL_j) for

@@ -52,8 +52,8 @@ static const char *const SET_NAMES[] = {"fmi2SetReal", "fmi2SetInteger", "fmi2Se
 
 /* ---- the kinds ----------------------------------------------------------------------------------- */
 
-extern const NativeKind native_lti_kind;
-static const NativeKind *const KINDS[] = {&native_lti_kind};
+extern const NativeKind native_lti_kind, native_reframe_kind;
+static const NativeKind *const KINDS[] = {&native_lti_kind, &native_reframe_kind};
 
 /* ---- helpers for the kinds ---------------------------------------------------------------------- */
 
@@ -412,6 +412,8 @@ typedef struct {
     void *sim;            /* the kind's simulator; NULL before fmi2ExitInitializationMode */
     double *params;       /* the runtime parameters as the simulator got them (special values replaced) */
     double *scratch_x, *scratch_y;
+    double *state_held;   /* the inputs the current state's step held (at initialisation: those held then; after a
+                             restore: the state's); a refused step leaves it (NativeKind.step_held) */
     BridgeLog *log;
     void *context;
 } Slave;
@@ -719,6 +721,7 @@ static void free_slave(Slave *s) {
     free(s->params);
     free(s->scratch_x);
     free(s->scratch_y);
+    free(s->state_held);
     free_model(&s->m);
     free(s);
 }
@@ -743,7 +746,8 @@ static void *instantiate(const char *resources_dir, const char *instance_name, c
     }
     if (snapshot_alloc(&s->m, &s->now) < 0 || !(s->params = calloc(s->m.layout.n_params + 1, sizeof *s->params))
         || !(s->scratch_x = calloc(s->m.nx + 1, sizeof *s->scratch_x))
-        || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))) {
+        || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))
+        || !(s->state_held = calloc(s->m.layout.n_inputs + 1, sizeof *s->state_held))) {
         log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
         free_slave(s);
         return NULL;
@@ -772,6 +776,7 @@ static int exit_initialization_mode(Slave *s) {
     now->initialised = 1;
     now->outputs_valid = 0;
     for (size_t j = 0; j < s->m.layout.n_inputs; j++) now->held[j] = now->values[s->m.input_vr[j]];
+    memcpy(s->state_held, now->held, s->m.layout.n_inputs * sizeof *now->held);
     for (size_t k = 0; k < s->m.n_messages; k++) note(s, s->m.messages[k]);
     return read_outputs(s); /* every output once: a problem shows here rather than at a later read */
 }
@@ -813,7 +818,8 @@ static int do_step(void *slave, double current_time, double h) {
     double *x = s->scratch_x;
     memcpy(x, now->x, m->nx * sizeof *x);
     NativeResult r = new_result(s);
-    int status = m->kind->step(s->sim, x, now->held, now->time, h, &r);
+    int status = m->kind->step_held ? m->kind->step_held(s->sim, x, s->state_held, now->held, now->time, h, &r)
+                                    : m->kind->step(s->sim, x, now->held, now->time, h, &r);
     double size = 0.0;
     if (status == BRIDGE_OK) {
         for (size_t i = 0; i < m->nx; i++) {
@@ -845,6 +851,7 @@ static int do_step(void *slave, double current_time, double h) {
                       m->divergence_allowed);
     }
     memcpy(now->x, x, m->nx * sizeof *x);
+    memcpy(s->state_held, now->held, m->layout.n_inputs * sizeof *now->held);
     now->time = t;
     return BRIDGE_OK;
 }
@@ -1036,6 +1043,7 @@ static int set_state(void *slave, void *state) {
     if (s->sim && sim != s->sim) m->kind->free_sim(s->sim);
     s->sim = sim;
     snapshot_copy(m, &s->now, from);
+    memcpy(s->state_held, from->held, m->layout.n_inputs * sizeof *from->held);
     s->now.outputs_valid = from->initialised; /* the outputs of the state's last step, as taken */
     return BRIDGE_OK;
 }

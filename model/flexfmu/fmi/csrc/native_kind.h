@@ -16,10 +16,12 @@
  *               initial state x; kind-specific checks of the parameters here
  *   step        advance x over h with the inputs u held; x is written only on success
  *   outputs     all outputs (model-file order) of x with u held
+ *   step_held   (optional) step, also given the inputs held before this step
  *   culprit     the input most likely behind a non-finite or diverged state or output (index), or -1 (the
  *               bridge then names "state")
  *
- * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c.  A new kind: its file
+ * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c; the reframe kind (free bodies:
+ * ReframeBody) native_reframe.c.  A new kind: its file
  * (native_<kind>.c) with one `const NativeKind native_<kind>_kind`, its line in KINDS, its writer in
  * flexfmu/fmi/native.py.
  *
@@ -94,6 +96,11 @@ typedef struct {
        `threshold` (the largest), else -1; 1 the outputs of x with u: the input that alone overflows them, else
        the largest contributor, -1 when all inputs are 0 */
     int (*culprit)(void *sim, int what, const double *x, const double *u, double threshold);
+    /* optional (NULL: step): step with, besides the inputs u held now, the inputs u_before held by the step before
+       (or at initialisation, or in the restored FMU state): the reframe kind's choice of internal steps
+       estimates the rotation from the state's rates with the inputs its step held */
+    int (*step_held)(void *sim, double *x, const double *u_before, const double *u, double t, double h,
+                     NativeResult *result);
 } NativeKind;
 
 /* Helpers the bridge offers the kinds: Python's repr of a float ("0.001", "1e-05", "nan", "100.0"), and a

@@ -7,9 +7,11 @@
  * accumulated left to right as written (the build keeps IEEE semantics: no contraction, no reassociation).
  */
 #include "reframe_kernels.h"
+#include "lti_kernels.h" /* ffx_lti_expm: the 8x8 exponentials of the exponential scheme */
 
 #include <math.h>
 #include <stddef.h>
+#include <string.h>
 
 #define NR FFX_REFRAME_N_RIGID
 #define BLOCK FFX_REFRAME_BLOCK
@@ -889,4 +891,60 @@ void ffx_reframe_consistent_outputs(const double *P, const double *LP, int n_loa
 {
     ffx_reframe_outputs(P, LP, n_loads, NULL, nf, deformed, sv, y, PP, n_points, Psi, psi_cols, dpn, order,
                         n_nodes, bc, br, n_blocks, sc, sr, n_super, out, work);
+}
+
+/* ------------------------------------------------------------------------- exponential-scheme coefficients */
+
+/* flexfmu.reframe.schemes.exponential_coefficients: per mode, the 8x8 exponentials of the augmented matrix
+   [[f dt Lhat, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0, 0, 0, 0]] (f = 1, 1/2) in the balanced coordinates
+   (omega_j q_j, p_j), their blocks e^Z, phi_1, phi_2, phi_3 combined as the Python reference does, scaled back. */
+int ffx_reframe_exponential_coefficients(int nf, const double *kF, const double *cF, double dt, double *EX,
+                                         double *work)
+{
+    double *W = work, *X = work + 64, *ework = work + 128;
+    double blocks[2][4][4]; /* [frac][b] 2x2 row-major: e^Z, phi_1, phi_2, phi_3 */
+    int j, f, b, r, c, m, status = FFX_REFRAME_OK;
+    for (j = 0; j < nf; j++) {
+        const double k = kF[j], cc = cF[j];
+        const double w = sqrt(k > 0.0 ? k : 0.0);
+        const double s = w > 0.0 ? w : 1.0;
+        const double L[4] = {0.0, s, -k / s, -cc};
+        for (f = 0; f < 2; f++) {
+            const double scale = (f == 0 ? 1.0 : 0.5) * dt;
+            memset(W, 0, 64 * sizeof(double));
+            for (r = 0; r < 2; r++)
+                for (c = 0; c < 2; c++) W[8 * r + c] = scale * L[2 * r + c];
+            for (b = 0; b < 3; b++) {
+                W[8 * (2 * b) + 2 * b + 2] = 1.0;
+                W[8 * (2 * b + 1) + 2 * b + 3] = 1.0;
+            }
+            if (ffx_lti_expm(8, W, X, ework) != 0) status = FFX_REFRAME_STATE_NOT_FINITE;
+            for (b = 0; b < 4; b++)
+                for (r = 0; r < 2; r++)
+                    for (c = 0; c < 2; c++) blocks[f][b][2 * r + c] = X[8 * r + 2 * b + c];
+        }
+        {
+            const double h = dt;
+            const double *e1 = blocks[0][0], *p1 = blocks[0][1], *p2 = blocks[0][2], *p3 = blocks[0][3];
+            double mats[6][4];
+            for (r = 0; r < 4; r++) {
+                mats[0][r] = e1[r];
+                mats[1][r] = blocks[1][0][r];
+                mats[2][r] = 0.5 * h * blocks[1][1][r];
+                mats[3][r] = h * (p1[r] - 3.0 * p2[r] + 4.0 * p3[r]);
+                mats[4][r] = h * (2.0 * p2[r] - 4.0 * p3[r]);
+                mats[5][r] = h * (4.0 * p3[r] - p2[r]);
+            }
+            for (m = 0; m < 6; m++) {
+                double *out = EX + 24 * j + 4 * m;
+                out[0] = mats[m][0];
+                out[1] = mats[m][1] / s;
+                out[2] = mats[m][2] * s;
+                out[3] = mats[m][3];
+                for (r = 0; r < 4; r++)
+                    if (!isfinite(out[r])) status = FFX_REFRAME_STATE_NOT_FINITE;
+            }
+        }
+    }
+    return status;
 }

@@ -190,6 +190,22 @@ double ffx_reframe_bound(const double *C, const double *r, int b, const double *
 double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order,
                               int n_nodes, int b, const double *q, int nf, double best);
 
+/* ------------------------------------------------------------------------ exponential-scheme coefficients */
+
+/* doubles of workspace of ffx_reframe_exponential_coefficients (two 8x8 matrices and ffx_lti_expm's 8x8
+ * workspace, ffx_lti_expm_work_len(8) = 536) */
+#define FFX_REFRAME_EXPONENTIAL_WORK_SIZE (128 + 536)
+
+/*
+ * EX (24 nf doubles, the layout above) of the exponential scheme for a step dt from the modal stiffnesses
+ * kF (nf) and damping coefficients cF (nf): a port of flexfmu.reframe.schemes.exponential_coefficients (the
+ * scipy reference), the 8x8 exponentials by ffx_lti_expm (lti_kernels.c: link it too).  work:
+ * FFX_REFRAME_EXPONENTIAL_WORK_SIZE doubles.  Returns FFX_REFRAME_OK, or FFX_REFRAME_STATE_NOT_FINITE when a
+ * coefficient is not finite (EX then holds them anyway).  Python: flexfmu.native.reframe.exponential_coefficients.
+ */
+int ffx_reframe_exponential_coefficients(int nf, const double *kF, const double *cF, double dt, double *EX,
+                                         double *work);
+
 /* ------------------------------------------------------------------------------------- small helpers */
 
 /* Start offsets of P's blocks for nf modes into off[FFX_REFRAME_N_OFFSETS] (J0, A, B, C, D, k, c, A6,

@@ -1,0 +1,436 @@
+/*
+ * native_reframe.c - the "reframe" kind of the native runtime (native_kind.h): a free flexible body by the reframe
+ * integrator's exponential scheme (ETD-RK4, flexfmu.reframe.integrator), stepped by the compiled kernels of
+ * reframe_kernels.h (flexfmu/native/csrc; the same code the Python library calls through ctypes), for ReframeBody.
+ * It does what flexfmu.reframe.simulator.ReframeBodySimulator does per step, on the arrays that simulator's
+ * integrator computed (one implementation of the numerics: Python computes the model arrays once, C steps them).
+ *
+ * Model-file entries (flexfmu/fmi/native.py writes them from a ReframeBodySimulator):
+ *   reframe.P         float64 (FFX_REFRAME_PARAM_SIZE(nf))   the packed model (its c_F block is recomputed from
+ *                                                           damping_ratio when that is a runtime parameter)
+ *   reframe.LP        float64 (FFX_REFRAME_LOAD_STRIDE(nf))  the load point (one load; its follower flag from
+ *                                                           force_follows_body)
+ *   reframe.PP        float64 (1, 3 + 3 nf)                 the output point
+ *   reframe.omega     float64 (nf)    the flexible modes' circular frequencies (c_F = 2 zeta omega)
+ *   reframe.Psi       float64 (n_dof, 6 + nf), reframe.order int32 (n_nodes), reframe.bc (n_blocks, 3 nf),
+ *   reframe.br (n_blocks), reframe.sc (n_super, 3 nf), reframe.sr (n_super)   the max-displacement search
+ *   reframe.int       int32 (6): nf, dpn, deformed load arm, rotational DOFs (moments accepted), log_split, 0
+ *   reframe.real      float64 (4): |arm| of the load point about the centre of mass, smallest principal moment of
+ *                     inertia J_min, body radius about the centre of mass, mass
+ *   reframe.columns   int32 (n_outputs): the kernel output-vector index of each FMU output (FMU output order)
+ *   reframe.role      int32 (11): the runtime parameter (index) of damping_ratio, tolerance, internal_step,
+ *                     max_internal_steps, v0_x, v0_y, v0_z, omega0_1, omega0_2, omega0_3, force_follows_body, or
+ *                     -1: fixed at build, at reframe.fixed's value
+ *   reframe.fixed     float64 (11): the build values of the same
+ *
+ * A communication step h with the inputs held is n equal internal steps, n as ReframeBodySimulator._split:
+ * internal_step > 0: ceil(h / internal_step (1 - 1e-12)); internal_step = 0: the rotation per internal step,
+ * |omega| h + |alpha| h^2 / 2 at the step's start (omega, alpha of the state with the inputs the previous step
+ * held, alpha raised by (|arm| |dF| + |dM|) / J_min when the inputs changed), at most 0.5 tolerance^(1/4) rad.
+ * More than max_internal_steps: fmi2Discard when a 1e-5 s communication step would be within the cap, else
+ * fmi2Error naming the input or spin behind it.  The coefficients EX are recomputed when the internal step
+ * changes (ffx_reframe_exponential_coefficients, the C port of the Python scheme's).
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "flexfmu_bridge.h"
+#include "native_kind.h"
+#include "reframe_kernels.h"
+
+#define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
+#define N_ROLES 11
+enum { R_ZETA, R_TOL, R_INTERNAL, R_CAP, R_V0, R_OMEGA0 = R_V0 + 3, R_FOLLOW = R_OMEGA0 + 3 };
+static const char *const ROLE_NAMES[N_ROLES] = {"damping_ratio", "tolerance", "internal_step", "max_internal_steps",
+                                                "v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3",
+                                                "force_follows_body"};
+
+typedef struct {
+    NativeLayout layout;
+    int nf, dpn, deformed, rotational, log_split, psi_cols, n_nodes, n_blocks, n_super, n_out;
+    const double *P, *LP, *PP, *omega, *Psi, *bc, *br, *sc, *sr, *fixed;
+    const int32_t *columns, *role;
+    int64_t *order;
+    double arm, J_min, size, mass;
+} ReframeModel;
+
+typedef struct {
+    const ReframeModel *m;
+    double *P, *LP, *EX, *work, *ework, *out, *y;
+    double SV[18], sv[6];
+    double ex_dt; /* dt of EX (0: none yet) */
+    double roles[N_ROLES];
+    double theta_max, internal_step;
+    long cap, last_split;
+} ReframeSim;
+
+static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
+    ReframeModel *m = calloc(1, sizeof *m);
+    if (!m) {
+        snprintf(why, why_size, "out of memory");
+        return NULL;
+    }
+    m->layout = *layout;
+    uint32_t s[NATIVE_MAX_DIMS];
+    const int32_t *ints, *order;
+    const double *reals;
+    long six[1] = {6}, four[1] = {4}, roles[1] = {N_ROLES}, nout[1] = {(long)layout->n_outputs};
+    if (native_i32(file, "reframe.int", 1, six, &ints, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.real", 1, four, &reals, NULL, why, why_size) < 0
+        || native_i32(file, "reframe.columns", 1, nout, &m->columns, NULL, why, why_size) < 0
+        || native_i32(file, "reframe.role", 1, roles, &m->role, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.fixed", 1, roles, &m->fixed, NULL, why, why_size) < 0)
+        goto fail;
+    m->nf = ints[0], m->dpn = ints[1], m->deformed = ints[2], m->rotational = ints[3], m->log_split = ints[4];
+    m->arm = reals[0], m->J_min = reals[1], m->size = reals[2], m->mass = reals[3];
+    m->n_out = (int)layout->n_outputs;
+    int nf = m->nf;
+    if (nf < 0 || m->dpn < 3 || layout->n_inputs != 6) {
+        snprintf(why, why_size, "the model file's reframe sizes are inconsistent (nf %d, dpn %d, %zu inputs)", nf,
+                 m->dpn, layout->n_inputs);
+        goto fail;
+    }
+    long sp[1] = {FFX_REFRAME_PARAM_SIZE(nf)}, sl[1] = {FFX_REFRAME_LOAD_STRIDE(nf)}, spp[2] = {1, 3 + 3 * nf},
+         so[1] = {nf}, spsi[2] = {-1, 6 + nf}, sbc[2] = {-1, 3 * nf};
+    if (native_f64(file, "reframe.P", 1, sp, &m->P, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.LP", 1, sl, &m->LP, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.PP", 2, spp, &m->PP, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.omega", 1, so, &m->omega, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.Psi", 2, spsi, &m->Psi, s, why, why_size) < 0)
+        goto fail;
+    m->psi_cols = (int)s[1];
+    long n_dof = s[0];
+    if (native_i32(file, "reframe.order", 1, NULL, &order, s, why, why_size) < 0) goto fail;
+    m->n_nodes = (int)s[0];
+    if (native_f64(file, "reframe.bc", 2, sbc, &m->bc, s, why, why_size) < 0) goto fail;
+    m->n_blocks = (int)s[0];
+    long sbr[1] = {m->n_blocks};
+    if (native_f64(file, "reframe.br", 1, sbr, &m->br, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.sc", 2, sbc, &m->sc, s, why, why_size) < 0)
+        goto fail;
+    m->n_super = (int)s[0];
+    long ssr[1] = {m->n_super};
+    if (native_f64(file, "reframe.sr", 1, ssr, &m->sr, NULL, why, why_size) < 0) goto fail;
+    if (!(m->order = malloc(sizeof(int64_t) * (size_t)(m->n_nodes + 1)))) {
+        snprintf(why, why_size, "out of memory");
+        goto fail;
+    }
+    for (int i = 0; i < m->n_nodes; i++) {
+        if (order[i] < 0 || (long)m->dpn * order[i] + 2 >= n_dof) goto bad_index;
+        m->order[i] = order[i];
+    }
+    for (int k = 0; k < m->n_out; k++)
+        if (m->columns[k] < 0 || m->columns[k] >= FFX_REFRAME_OUTPUT_SIZE(nf, 1)) goto bad_index;
+    for (int k = 0; k < N_ROLES; k++)
+        if (m->role[k] >= (int32_t)layout->n_params) goto bad_index;
+    return m;
+bad_index:
+    snprintf(why, why_size, "the model file's reframe index maps point outside the model or the FMU's variables");
+fail:
+    if (m) free(m->order);
+    free(m);
+    return NULL;
+}
+
+static void free_model(void *model) {
+    ReframeModel *m = model;
+    if (!m) return;
+    free(m->order);
+    free(m);
+}
+
+static size_t state_size(const void *model) {
+    return (size_t)FFX_REFRAME_STATE_SIZE(((const ReframeModel *)model)->nf);
+}
+
+static void free_sim(void *sim) {
+    ReframeSim *s = sim;
+    if (!s) return;
+    free(s->P);
+    free(s->LP);
+    free(s->EX);
+    free(s->work);
+    free(s->ework);
+    free(s->out);
+    free(s->y);
+    free(s);
+}
+
+static double norm3(const double *v) {
+    /* as Python's math.hypot of three (scaled against overflow) */
+    double a = fabs(v[0]), b = fabs(v[1]), c = fabs(v[2]);
+    double mx = a > b ? (a > c ? a : c) : (b > c ? b : c);
+    if (mx == 0.0 || !isfinite(mx)) return isnan(a + b + c) && !isinf(mx) ? NAN : mx;
+    a /= mx, b /= mx, c /= mx;
+    return mx * sqrt(a * a + b * b + c * c);
+}
+
+static void *init(const void *model, const double *params, double *x, NativeResult *r) {
+    const ReframeModel *m = model;
+    int nf = m->nf;
+    ReframeSim *s = calloc(1, sizeof *s);
+    if (!s || !(s->P = malloc(sizeof(double) * FFX_REFRAME_PARAM_SIZE(nf)))
+        || !(s->LP = malloc(sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf)))
+        || !(s->EX = calloc((size_t)(24 * nf + 1), sizeof(double)))
+        || !(s->work = malloc(sizeof(double) * FFX_REFRAME_WORK_SIZE(nf)))
+        || !(s->ework = malloc(sizeof(double) * FFX_REFRAME_EXPONENTIAL_WORK_SIZE))
+        || !(s->out = malloc(sizeof(double) * FFX_REFRAME_OUTPUT_SIZE(nf, 1)))
+        || !(s->y = malloc(sizeof(double) * FFX_REFRAME_STATE_SIZE(nf)))) {
+        free_sim(s);
+        native_refuse(r, BRIDGE_ERROR, "out of memory");
+        return NULL;
+    }
+    s->m = m;
+    for (int k = 0; k < N_ROLES; k++) s->roles[k] = m->role[k] >= 0 ? params[m->role[k]] : m->fixed[k];
+    memcpy(s->P, m->P, sizeof(double) * FFX_REFRAME_PARAM_SIZE(nf));
+    memcpy(s->LP, m->LP, sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf));
+    int off[FFX_REFRAME_N_OFFSETS];
+    ffx_reframe_offsets(nf, off);
+    if (m->role[R_ZETA] >= 0) /* as flexfmu.linalg.modal_basis: damping 2 zeta omega */
+        for (int j = 0; j < nf; j++) s->P[off[FFX_REFRAME_O_CF] + j] = 2.0 * s->roles[R_ZETA] * m->omega[j];
+    s->LP[0] = s->roles[R_FOLLOW] != 0.0 ? 1.0 : 0.0;
+    s->theta_max = 0.5 * pow(s->roles[R_TOL], 0.25);
+    s->internal_step = s->roles[R_INTERNAL];
+    s->cap = (long)s->roles[R_CAP];
+    s->last_split = 0;
+    double shortest = MIN_COMMUNICATION_STEP / (double)s->cap;
+    if (!(s->internal_step == 0.0 || s->internal_step >= shortest)) {
+        char shown[64];
+        native_repr(s->internal_step, shown, sizeof shown);
+        native_refuse(r, BRIDGE_ERROR, "internal_step: %s s: even a %g s communication step would need more than "
+                                       "max_internal_steps = %ld of them (allowed: 0 (automatic), or %.3g s .. any "
+                                       "longer step (no stability limit))", shown, MIN_COMMUNICATION_STEP, s->cap,
+                      shortest);
+        free_sim(s);
+        return NULL;
+    }
+    const double *w0 = s->roles + R_OMEGA0;
+    double omega_cap = (double)s->cap * s->theta_max / MIN_COMMUNICATION_STEP, omega0 = norm3(w0);
+    if (!(omega0 <= omega_cap)) {
+        int i = 0;
+        for (int k = 1; k < 3; k++)
+            if (fabs(w0[k]) > fabs(w0[i])) i = k;
+        native_refuse(r, BRIDGE_ERROR, "%s: %g rad/s (|omega0| = %.4g rad/s): at that spin even a %g s communication "
+                                       "step needs more than max_internal_steps = %ld internal steps of at most 0.5 "
+                                       "tolerance^(1/4) = %.3g rad (allowed: |omega0| <= %.4g rad/s (max_internal_steps "
+                                       "x 0.5 tolerance^(1/4) / %g s))", ROLE_NAMES[R_OMEGA0 + i], w0[i], omega0,
+                      MIN_COMMUNICATION_STEP, s->cap, s->theta_max, omega_cap, MIN_COMMUNICATION_STEP);
+        free_sim(s);
+        return NULL;
+    }
+    /* flexfmu.reframe.integrator.initial_state: the centre of mass at its mesh position, R = I, q = 0, qdot_R =
+       A6inv [v0; omega0] */
+    memset(x, 0, sizeof(double) * FFX_REFRAME_STATE_SIZE(nf));
+    for (int a = 0; a < 3; a++) x[a] = s->P[off[FFX_REFRAME_O_COM] + a];
+    x[3] = x[7] = x[11] = 1.0;
+    double vw[6] = {s->roles[R_V0], s->roles[R_V0 + 1], s->roles[R_V0 + 2], w0[0], w0[1], w0[2]};
+    const double *A6inv = s->P + off[FFX_REFRAME_O_A6INV];
+    double *qdR = x + 12 + FFX_REFRAME_N_RIGID + nf;
+    for (int i = 0; i < 6; i++) {
+        double acc = 0.0;
+        for (int k = 0; k < 6; k++) acc += A6inv[6 * i + k] * vw[k];
+        qdR[i] = acc;
+    }
+    return s;
+}
+
+/* The load values of the held inputs u: sv (one instant) and SV (the three stages of a held step). */
+static void load_values(ReframeSim *s, const double *u) {
+    for (int k = 0; k < 6; k++) s->sv[k] = (k < 3 || s->m->rotational) ? u[k] : 0.0;
+    for (int st = 0; st < 3; st++) memcpy(s->SV + 6 * st, s->sv, sizeof s->sv);
+}
+
+static int moment_refused(ReframeSim *s, const double *u, NativeResult *r) {
+    if (s->m->rotational) return 0;
+    for (int k = 3; k < 6; k++)
+        if (u[k] != 0.0) {
+            static const char *const names[3] = {"M_x", "M_y", "M_z"};
+            native_refuse(r, BRIDGE_ERROR, "%s: moments need a model with rotational DOFs (beam:<scene>) (allowed: 0 "
+                                           "for models with 3 DOFs per node)", names[k - 3]);
+            return 1;
+        }
+    return 0;
+}
+
+/* The kernel outputs of x with the inputs u into s->out; search: with the max elastic displacement. */
+static void kernel_outputs(ReframeSim *s, const double *x, const double *u, int search) {
+    const ReframeModel *m = s->m;
+    load_values(s, u);
+    ffx_reframe_outputs(s->P, s->LP, 1, NULL, m->nf, m->deformed, s->sv, x, m->PP, 1, m->Psi, m->psi_cols, m->dpn,
+                        m->order, search ? m->n_nodes : 0, m->bc, m->br, m->n_blocks, m->sc, m->sr, m->n_super,
+                        s->out, s->work);
+}
+
+/* Python's round_down(x, 4) (flexfmu.core.checks). */
+static double round_down(double x) {
+    if (!(isfinite(x) && x > 0)) return x;
+    double scale = pow(10.0, floor(log10(x)) - 3);
+    return floor(x / scale * (1 - 1e-12)) * scale;
+}
+
+static double dist3(const double *a, const double *b) {
+    double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+    return norm3(d);
+}
+
+/* ReframeBodySimulator._too_many_steps: the refusal of a split beyond the cap (rates: NULL for fixed steps). */
+static int too_many(ReframeSim *s, double t, double h, double needed, const double *rates, const double *u,
+                    NativeResult *r) {
+    const ReframeModel *m = s->m;
+    double theta = s->theta_max, h_ok;
+    long cap = s->cap;
+    if (!rates) h_ok = (double)cap * s->internal_step;
+    else {
+        double w = rates[0], a = rates[1], disc = w * w + 2.0 * a * theta;
+        double root = isfinite(disc) ? sqrt(disc) : INFINITY;
+        h_ok = w + root > 0 ? (double)cap * 2.0 * theta / (w + root) : INFINITY;
+    }
+    char count[64];
+    if (isfinite(needed) && needed < 1e15) snprintf(count, sizeof count, "%.0f", ceil(needed));
+    else snprintf(count, sizeof count, "%.3g", needed);
+    if (h_ok >= MIN_COMMUNICATION_STEP)
+        return native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
+                                                "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
+                                                "or raise max_internal_steps", count, h, cap, round_down(h_ok));
+    if (!rates)
+        return native_refuse(r, BRIDGE_ERROR, "internal_step: %g s: even a %g s communication step needs more than "
+                                              "max_internal_steps = %ld internal steps (allowed: a longer internal step "
+                                              "or a larger max_internal_steps)", s->internal_step,
+                             MIN_COMMUNICATION_STEP, cap);
+    double w = rates[0], a = rates[1], hm = MIN_COMMUNICATION_STEP;
+    char why[256];
+    snprintf(why, sizeof why, "even a %g s communication step needs more than max_internal_steps = %ld internal steps "
+                              "of at most 0.5 tolerance^(1/4) = %.3g rad (scheme exponential)", hm, cap, theta);
+    if (0.5 * a * hm * hm >= w * hm) {
+        static const char *const names[6] = {"F_x", "F_y", "F_z", "M_x", "M_y", "M_z"};
+        int best = 0;
+        double best_score = -1.0;
+        for (int k = 0; k < 6; k++) {
+            double score = fabs(u[k]) * (k < 3 ? m->arm : 1.0);
+            if (score > best_score) best = k, best_score = score;
+        }
+        double a_ok = fmax(2.0 * ((double)cap * theta - w * hm) / (hm * hm), 0.0), lever = best < 3 ? m->arm : 1.0;
+        return native_refuse(r, BRIDGE_ERROR, "%s: %g %s gives an angular acceleration of up to %.3g rad/s^2: %s "
+                                              "(allowed: |%c| <= about %.3g %s at this load point (|alpha| <= %.3g "
+                                              "rad/s^2))", names[best], u[best], best < 3 ? "N" : "N.m", a, why,
+                             names[best][0], lever > 0 ? a_ok * m->J_min / lever : 0.0, best < 3 ? "N" : "N.m", a_ok);
+    }
+    double omega_ok = (double)cap * theta / hm;
+    return native_refuse(r, BRIDGE_ERROR, "state: the body spins at %.4g rad/s at t = %.6g s: %s (allowed: inputs "
+                                          "that keep |omega| <= %.4g rad/s)", w, t, why, omega_ok);
+}
+
+/* ReframeBodySimulator._split: the internal steps of a communication step h (>= 1), or 0 after refusing. */
+static long split(ReframeSim *s, const double *x, const double *u_before, const double *u, double t, double h,
+                  NativeResult *r) {
+    long cap = s->cap, n;
+    char why[400];
+    if (s->internal_step > 0) {
+        double ratio = h / s->internal_step * (1 - 1e-12);
+        if (!(ratio <= (double)cap)) return too_many(s, t, h, ratio, NULL, u, r), 0;
+        n = (long)ceil(ratio);
+        if (n < 1) n = 1;
+        snprintf(why, sizeof why, "internal_step = %g s requested", s->internal_step);
+    } else {
+        const ReframeModel *m = s->m;
+        kernel_outputs(s, x, u_before, 0); /* the rates of the state with the inputs its step held */
+        double w = norm3(s->out + 10), a = norm3(s->out + 13);
+        int changed = 0;
+        for (int k = 0; k < 6; k++) changed |= u[k] != u_before[k];
+        if (changed) a = a + (m->arm * dist3(u_before, u) + dist3(u_before + 3, u + 3)) / m->J_min;
+        if (!(w < INFINITY && a < INFINITY)) return 0; /* NATIVE_NOT_FINITE: the caller reports it */
+        double theta = w * h + 0.5 * a * h * h, rates[2] = {w, a};
+        double ratio = theta / s->theta_max * (1 - 1e-12);
+        if (!(ratio <= (double)cap)) return too_many(s, t, h, ratio, rates, u, r), 0;
+        n = (long)ceil(ratio);
+        if (n < 1) n = 1;
+        if (n > 1) {
+            double hi = h / (double)n;
+            int k;
+            for (k = 0; k < 8; k++) {
+                if (!(w * hi + 0.5 * a * hi * hi > s->theta_max)) break;
+                n += 1;
+                hi = h / (double)n;
+            }
+            if (k == 8) n = (long)ceil(theta / s->theta_max * (1 + 1e-9));
+            if (n > cap) return too_many(s, t, h, (double)n, rates, u, r), 0;
+        }
+        snprintf(why, sizeof why, "scheme exponential: no stability limit; by accuracy, rotation per internal step "
+                                  "%.3g rad <= 0.5 tolerance^(1/4) = %.3g rad (|omega| = %.4g rad/s, |alpha| ~ %.4g "
+                                  "rad/s^2)", theta / (double)n, s->theta_max, w, a);
+    }
+    if (s->m->log_split && n != s->last_split)
+        native_note(r, "t = %.6g s: communication step %g s in %ld internal step(s) of %.4g s: %s", t, h, n,
+                    h / (double)n, why);
+    s->last_split = n;
+    return n;
+}
+
+static int step_held(void *sim, double *x, const double *u_before, const double *u, double t, double h,
+                     NativeResult *r) {
+    ReframeSim *s = sim;
+    const ReframeModel *m = s->m;
+    int nf = m->nf;
+    if (moment_refused(s, u, r)) return r->status;
+    long n = split(s, x, u_before, u, t, h, r);
+    if (n == 0) return r->status >= BRIDGE_DISCARD ? r->status : NATIVE_NOT_FINITE;
+    double dt = h / (double)n;
+    if (dt != s->ex_dt) { /* the Python integrator's per-dt coefficients, by the same C function */
+        int off[FFX_REFRAME_N_OFFSETS];
+        ffx_reframe_offsets(nf, off);
+        if (ffx_reframe_exponential_coefficients(nf, s->P + off[FFX_REFRAME_O_K], s->P + off[FFX_REFRAME_O_CF], dt,
+                                                 s->EX, s->ework) != FFX_REFRAME_OK) {
+            s->ex_dt = 0.0;
+            return native_refuse(r, BRIDGE_ERROR, "dt: %g s gives non-finite exponential propagators (allowed: a "
+                                                  "finite time step > 0 (s))", dt);
+        }
+        s->ex_dt = dt;
+    }
+    load_values(s, u);
+    size_t ny = (size_t)FFX_REFRAME_STATE_SIZE(nf);
+    memcpy(s->y, x, sizeof(double) * ny);
+    double tk = t;
+    int done = 0;
+    int status = ffx_reframe_steps(s->P, s->LP, 1, NULL, nf ? s->EX : NULL, nf, m->deformed, s->SV, 1, &tk, dt,
+                                   (int)n, s->y, &done, s->work);
+    if (status != FFX_REFRAME_OK) return NATIVE_NOT_FINITE;
+    memcpy(x, s->y, sizeof(double) * ny);
+    return BRIDGE_OK;
+}
+
+static int step(void *sim, double *x, const double *u, double t, double h, NativeResult *r) {
+    return step_held(sim, x, u, u, t, h, r);
+}
+
+static int outputs(void *sim, const double *x, const double *u, double *y, NativeResult *r) {
+    ReframeSim *s = sim;
+    const ReframeModel *m = s->m;
+    if (moment_refused(s, u, r)) return r->status;
+    kernel_outputs(s, x, u, 1);
+    for (int k = 0; k < m->n_out; k++) y[k] = s->out[m->columns[k]];
+    for (int k = 0; k < m->n_out; k++)
+        if (!isfinite(y[k])) return NATIVE_NOT_FINITE;
+    return BRIDGE_OK;
+}
+
+/* The held input most likely behind an overflow (ReframeBodySimulator._overflow's scores: each input's
+   displacement, rotation and acceleration over the step, h = 1 s). */
+static int culprit(void *sim, int what, const double *x, const double *u, double threshold) {
+    (void)x, (void)what;
+    const ReframeModel *m = ((ReframeSim *)sim)->m;
+    int best = -1;
+    double best_score = 0.0;
+    for (int k = 0; k < 6; k++) {
+        double score = k < 3 ? fabs(u[k]) * (1.0 / m->mass + m->arm * m->size / m->J_min)
+                             : fabs(u[k]) * m->size / m->J_min;
+        if (score > best_score || (!(score <= best_score) && best < 0)) best = k, best_score = score;
+    }
+    if (what == 0) return best >= 0 && !(best_score <= threshold) ? best : -1;
+    return best;
+}
+
+const NativeKind native_reframe_kind = {"reframe", load, free_model, state_size, init, free_sim, step, outputs,
+                                        culprit, step_held};
