@@ -8,7 +8,8 @@
     flexfmu export MODEL -o OUT.fmu [--material E,NU,RHO] [--nodes FILE] [--clamp SPEC]
                   [--interface NAME=X,Y,Z]... [--modes N | --f-max HZ [--tolerance TOL]] [--damping ZETA]
                   [--runtime python|native]
-    flexfmu build [--out dist] [--runtime python|native [--fmu FFRBeam] [--set NAME=VALUE]... [--name ID]]
+    flexfmu build [--out dist] [--runtime python|native [--fmu FFRBeam|ReframeBody] [--set NAME=VALUE]...
+                  [--name ID]]
     flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
     flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|ecos|library]
@@ -90,10 +91,6 @@ def _export(args: argparse.Namespace) -> int:
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
-    if args.runtime == "native" and (args.clamp == "free" or (args.clamp is None and _is_free_model_spec(args.model))):
-        raise ParameterError("runtime", "native: a free body (no --clamp), and the native runtime has no free-body "
-                             "(reframe) kind yet", "--runtime python (the default) for free bodies; --runtime native "
-                             "for clamped ones (--clamp SET)")
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -180,12 +177,6 @@ def _main_job(args: argparse.Namespace) -> int:
         print(format_table(scene.name, modal_analysis(scene, boundary, n_modes=6)))
         print()
     return 0
-
-
-def _is_free_model_spec(model: str) -> bool:
-    """A model spec that is free unless --clamp is given (a beam scene or the paper's plate; model files may carry
-    constrained DOFs, known only once read)."""
-    return model == "paper_plate" or model.startswith("beam:")
 
 
 def _settings(pairs: list) -> dict:
@@ -487,7 +478,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="modal damping ratio (default 0.02; an FMU parameter too)")
     export.add_argument("--runtime", choices=("python", "native"), default="python",
                         help="python (default): the FMU runs flexfmu in the host's Python; native: a C-only binary "
-                             "with no Python (clamped bodies; docs/fmu.md, 'Native runtime')")
+                             "with no Python (clamped and free bodies; a free body's scheme exponential fixed at build; docs/fmu.md, "
+                             "'Native runtime')")
     export.set_defaults(func=_export)
 
     build = sub.add_parser("build", help="build the FMUs of flexfmu.fmi.registry into dist/")

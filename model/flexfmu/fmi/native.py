@@ -730,17 +730,16 @@ def build_registry_fmu(name: str = "FFRBeam", settings: dict | None = None, *, o
 
 
 # ---------------------------------------------------------------------------------------------- exported bodies
-def body_source(body, name: str, description: str | None = None) -> NativeSource:
-    """The native source of an exported clamped body (flexfmu.body.FlexBody); ParameterError for a free body."""
+def body_source(body, name: str, description: str | None = None, *, scheme: str = "exponential") -> NativeSource:
+    """The native source of an exported body (flexfmu.body.FlexBody): a clamped one as the LTI kind, a free one as
+    the reframe kind (:func:`_free_body_source`, its ``scheme`` fixed at build)."""
     from flexfmu.body.simulator import FlexBodySimulator, config_class
     from flexfmu.fmi.export import ExportedSpec, check_model_identifier, default_experiment, documentation_html
     from flexfmu.native.lti import LtiModel
 
     check_model_identifier(name)
     if body.kind != "clamped":
-        raise ParameterError("runtime", f"native: {name} is a {body.kind} body and the native runtime has no free-body "
-                             "(reframe) kind yet", "--runtime python (the default) for free bodies; --runtime native "
-                             "for clamped ones (--clamp)")
+        return _free_body_source(body, name, description, scheme)
     description = description or body.summary()
     spec = ExportedSpec(name, description, body)
     config = config_class(body)()
@@ -760,8 +759,77 @@ def body_source(body, name: str, description: str | None = None) -> NativeSource
         info={"source": body.summary(), "fit_error": lti.fit_error})
 
 
-def export_native(body, target, *, description: str | None = None) -> Path:
-    """``flexfmu export ... --runtime native``: the native FMU of a clamped body at ``target`` (NAME.fmu)."""
+
+def _free_body_source(body, name: str, description: str | None, scheme: str) -> NativeSource:
+    """An exported free body as the reframe kind (csrc/native_reframe.c, its free-body entries): the arrays of
+    its FlexBodySimulator's FreeDynamics written once, one load and one output point per interface, the outputs
+    by the simulator's own columns plus the global frame vectors and the frequencies; ``scheme`` fixed at build,
+    the other parameters settable."""
+    from flexfmu.body.free import SCHEMES
+    from flexfmu.body.simulator import TOLERANCE_RANGE, FlexBodySimulator, _INITIAL, config_class
+    from flexfmu.fmi.export import ExportedSpec, default_experiment, documentation_html
+
+    if scheme not in SCHEMES:
+        raise ParameterError("scheme", f"got {scheme!r}", " | ".join(SCHEMES))
+    description = description or body.summary()
+    spec = ExportedSpec(name, description, body)
+    config = config_class(body)(scheme=scheme)
+    sim = FlexBodySimulator(body, config)
+    engine, dyn = sim.engine, sim.engine.dyn
+    nf = dyn.nf
+    zeta = float(body.damping_ratio)
+    lo, hi = TOLERANCE_RANGE
+    runtime = (RuntimeParameter("damping_ratio", 0.0, 1.0, hi_open=True, special=-1.0, replacement=zeta,
+                                allowed="-1 (the body's) or 0 <= damping_ratio < 1"),
+               RuntimeParameter("tolerance", lo, hi, hi_open=True, allowed=f"{lo:g} <= tolerance < {hi:g}"),
+               RuntimeParameter("internal_step", 0.0, allowed="0 (automatic) or a step > 0 s"),
+               _max_internal_steps(),
+               *(RuntimeParameter(n, allowed="a finite number") for n in _INITIAL))
+    order, bc, br, sc, sr = dyn.umax
+    n_direct = len(sim._columns)
+    first, loads = 0, []
+    for moments in engine.moments:
+        loads.append([first, 6 if moments else 3])
+        first += loads[-1][1]
+    limit = engine.limit                         # RK4_STABILITY_LIMIT / omega_max (consistent), else inf
+
+    def entries(inputs, outputs, params):
+        if list(inputs) != list(sim.input_names):
+            raise ParameterError("reframe", "the FMU's inputs are not the body's", ", ".join(sim.input_names))
+        columns = []
+        for out in outputs:
+            k = sim.output_names.index(out)
+            columns.append(int(sim._columns[k]) if k < n_direct else -1 - (k - n_direct))
+        return {
+            "reframe.P": np.array(dyn.P, dtype=float), "reframe.LP": np.array(dyn.LP, dtype=float),
+            "reframe.PP": np.array(dyn.PP, dtype=float).reshape(dyn.n_if, 3 + 3 * nf),
+            "reframe.omega": np.sqrt(np.maximum(dyn.kF, 0.0)), "reframe.Psi": np.ascontiguousarray(dyn.Psi),
+            "reframe.order": np.asarray(order, np.int32), "reframe.bc": bc, "reframe.br": br,
+            "reframe.sc": sc, "reframe.sr": sr,
+            "reframe.int": np.array([nf, 3, int(dyn.deformed), 1, 1, 0], np.int32),
+            "reframe.real": np.array([0.0, 1.0, 0.0, dyn.mass], float),     # (arm, J_min, size: ReframeBody's)
+            "reframe.columns": np.array(columns, np.int32),
+            "reframe.role": np.array([params.index(n) if n in params else -1 for n in _REFRAME_ROLES], np.int32),
+            "reframe.fixed": np.array([float(getattr(config, n)) if hasattr(config, n) else 0.0
+                                       for n in _REFRAME_ROLES], float),
+            "reframe.body": np.array([1, int(scheme == "consistent"), dyn.n_if, 0], np.int32),
+            "reframe.loads": np.array(loads, np.int32).reshape(dyn.n_if, 2),
+            "reframe.limit": np.array([limit], float),
+            "reframe.extra": np.asarray(sim._f, float).reshape(-1),
+        }
+
+    page = documentation_html(name, body)
+    summary = page[page.index("<h2>Model, source and reduction</h2>"):page.index("<h2>Variables</h2>")]
+    return NativeSource(
+        name=name, description=description, spec=spec, values=dataclasses.asdict(config), runtime=runtime, lti=None,
+        experiment=default_experiment(body), kind="reframe", kind_entries=entries, messages=list(sim.messages),
+        rebuild=f"flexfmu export MODEL -o {name}.fmu ... --runtime native", log_split=True, documentation=summary,
+        info={"source": body.summary(), "scheme": scheme})
+
+
+def export_native(body, target, *, description: str | None = None, scheme: str = "exponential") -> Path:
+    """``flexfmu export ... --runtime native``: the native FMU of a clamped or free body at ``target`` (NAME.fmu);
+    ``scheme``: a free body's, fixed at build."""
     from flexfmu.fmi.export import check_target
     name = check_target(target)
-    return build_native_fmu(body_source(body, name, description), target)
+    return build_native_fmu(body_source(body, name, description, scheme=scheme), target)

@@ -23,6 +23,19 @@
  *                     -1: fixed at build, at reframe.fixed's value
  *   reframe.fixed     float64 (11): the build values of the same
  *
+ * Exported free bodies (flexfmu.body FreeEngine, flexfmu.fmi.native.body_source) add:
+ *   reframe.body      int32 (4): 1 (the exported free body's rules below), scheme (0 exponential, 1 consistent),
+ *                     n_loads (interfaces), 0
+ *   reframe.loads     int32 (n_loads, 2): each interface's first input and its number of inputs (3: F; 6: F, M);
+ *                     LP then has n_loads blocks, PP (n_points, 3 + 3 nf) one row per interface
+ *   reframe.limit     float64 (1): the RK4 stability limit 2.8 / omega_max (scheme consistent; inf otherwise)
+ *   reframe.extra     float64 (n_extra): constant outputs (f_1 .. f_k)
+ * and reframe.columns may then be negative: -1 - j is the j-th of [rot (3), omega (3), alpha (3) global, the
+ * constants of reframe.extra] (flexfmu.body.simulator._frame_global of q, omega_k, alpha_k).  Their split is
+ * FreeEngine.split: exponential with internal_step = 0: n = ceil(h (wm + sqrt(wm^2 + 2 a theta)) / (2 theta))
+ * with wm = w + a h, w, a = |omega|, |alpha| of the state with the inputs now held, theta = 0.5 tolerance^(1/4);
+ * otherwise n = ceil(h / max_step (1 - 1e-12)), max_step = internal_step, or 90 % of the RK4 limit (consistent).
+ *
  * A communication step h with the inputs held is n equal internal steps, n as ReframeBodySimulator._split:
  * internal_step > 0: ceil(h / internal_step (1 - 1e-12)); internal_step = 0: the rotation per internal step,
  * |omega| h + |alpha| h^2 / 2 at the step's start (omega, alpha of the state with the inputs the previous step
@@ -43,6 +56,8 @@
 
 #define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
 #define N_ROLES 11
+#define FFX_PI 3.14159265358979323846
+#define AUTO_STEP_FRACTION 0.9      /* flexfmu.body.engines.AUTO_STEP_FRACTION */
 enum { R_ZETA, R_TOL, R_INTERNAL, R_CAP, R_V0, R_OMEGA0 = R_V0 + 3, R_FOLLOW = R_OMEGA0 + 3 };
 static const char *const ROLE_NAMES[N_ROLES] = {"damping_ratio", "tolerance", "internal_step", "max_internal_steps",
                                                 "v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3",
@@ -51,8 +66,10 @@ static const char *const ROLE_NAMES[N_ROLES] = {"damping_ratio", "tolerance", "i
 typedef struct {
     NativeLayout layout;
     int nf, dpn, deformed, rotational, log_split, psi_cols, n_nodes, n_blocks, n_super, n_out;
-    const double *P, *LP, *PP, *omega, *Psi, *bc, *br, *sc, *sr, *fixed;
-    const int32_t *columns, *role;
+    int free_body, consistent, n_loads, n_points, n_extra; /* free_body: an exported free body (header) */
+    const double *P, *LP, *PP, *omega, *Psi, *bc, *br, *sc, *sr, *fixed, *extra;
+    const int32_t *columns, *role, *loads;
+    double limit;
     int64_t *order;
     double arm, J_min, size, mass;
 } ReframeModel;
@@ -60,10 +77,10 @@ typedef struct {
 typedef struct {
     const ReframeModel *m;
     double *P, *LP, *EX, *work, *ework, *out, *y;
-    double SV[18], sv[6];
+    double *SV, *sv;
     double ex_dt; /* dt of EX (0: none yet) */
     double roles[N_ROLES];
-    double theta_max, internal_step;
+    double theta_max, internal_step, max_step;
     long cap, last_split;
 } ReframeSim;
 
@@ -87,18 +104,39 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     m->nf = ints[0], m->dpn = ints[1], m->deformed = ints[2], m->rotational = ints[3], m->log_split = ints[4];
     m->arm = reals[0], m->J_min = reals[1], m->size = reals[2], m->mass = reals[3];
     m->n_out = (int)layout->n_outputs;
+    m->n_loads = 1, m->limit = INFINITY;
+    if (native_entry(file, "reframe.body")) {
+        const int32_t *body;
+        const double *limit;
+        long sb[1] = {4}, one[1] = {1};
+        if (native_i32(file, "reframe.body", 1, sb, &body, NULL, why, why_size) < 0) goto fail;
+        m->free_body = body[0] != 0, m->consistent = body[1] != 0, m->n_loads = body[2];
+        long sl2[2] = {m->n_loads, 2};
+        if (m->n_loads < 1 || native_i32(file, "reframe.loads", 2, sl2, &m->loads, NULL, why, why_size) < 0
+            || native_f64(file, "reframe.limit", 1, one, &limit, NULL, why, why_size) < 0
+            || native_f64(file, "reframe.extra", 1, NULL, &m->extra, s, why, why_size) < 0)
+            goto fail;
+        m->limit = limit[0], m->n_extra = (int)s[0];
+        for (int i = 0; i < m->n_loads; i++)
+            if (m->loads[2 * i] < 0 || (m->loads[2 * i + 1] != 3 && m->loads[2 * i + 1] != 6)
+                || (size_t)(m->loads[2 * i] + m->loads[2 * i + 1]) > layout->n_inputs)
+                goto bad_index;
+    }
     int nf = m->nf;
-    if (nf < 0 || m->dpn < 3 || layout->n_inputs != 6) {
+    if (nf < 0 || m->dpn < 3 || (!m->free_body && layout->n_inputs != 6)) {
         snprintf(why, why_size, "the model file's reframe sizes are inconsistent (nf %d, dpn %d, %zu inputs)", nf,
                  m->dpn, layout->n_inputs);
         goto fail;
     }
-    long sp[1] = {FFX_REFRAME_PARAM_SIZE(nf)}, sl[1] = {FFX_REFRAME_LOAD_STRIDE(nf)}, spp[2] = {1, 3 + 3 * nf},
+    long sp[1] = {FFX_REFRAME_PARAM_SIZE(nf)}, sl[1] = {(long)m->n_loads * FFX_REFRAME_LOAD_STRIDE(nf)},
+         spp[2] = {m->free_body ? -1 : 1, 3 + 3 * nf},
          so[1] = {nf}, spsi[2] = {-1, 6 + nf}, sbc[2] = {-1, 3 * nf};
     if (native_f64(file, "reframe.P", 1, sp, &m->P, NULL, why, why_size) < 0
         || native_f64(file, "reframe.LP", 1, sl, &m->LP, NULL, why, why_size) < 0
-        || native_f64(file, "reframe.PP", 2, spp, &m->PP, NULL, why, why_size) < 0
-        || native_f64(file, "reframe.omega", 1, so, &m->omega, NULL, why, why_size) < 0
+        || native_f64(file, "reframe.PP", 2, spp, &m->PP, s, why, why_size) < 0)
+        goto fail;
+    m->n_points = (int)s[0];
+    if (native_f64(file, "reframe.omega", 1, so, &m->omega, NULL, why, why_size) < 0
         || native_f64(file, "reframe.Psi", 2, spsi, &m->Psi, s, why, why_size) < 0)
         goto fail;
     m->psi_cols = (int)s[1];
@@ -123,7 +161,9 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
         m->order[i] = order[i];
     }
     for (int k = 0; k < m->n_out; k++)
-        if (m->columns[k] < 0 || m->columns[k] >= FFX_REFRAME_OUTPUT_SIZE(nf, 1)) goto bad_index;
+        if (m->columns[k] >= FFX_REFRAME_OUTPUT_SIZE(nf, m->n_points)
+            || (m->columns[k] < 0 && !(m->free_body && -1 - m->columns[k] < 9 + m->n_extra)))
+            goto bad_index;
     for (int k = 0; k < N_ROLES; k++)
         if (m->role[k] >= (int32_t)layout->n_params) goto bad_index;
     return m;
@@ -156,6 +196,8 @@ static void free_sim(void *sim) {
     free(s->ework);
     free(s->out);
     free(s->y);
+    free(s->SV);
+    free(s->sv);
     free(s);
 }
 
@@ -168,16 +210,35 @@ static double norm3(const double *v) {
     return mx * sqrt(a * a + b * b + c * c);
 }
 
+/* FreeEngine.__init__'s checks of the internal step (an exported free body); sets s->max_step. */
+static int free_checks(ReframeSim *s, double shortest, NativeResult *r) {
+    const ReframeModel *m = s->m;
+    double h = s->internal_step;
+    if (h > m->limit)
+        return native_refuse(r, BRIDGE_ERROR, "internal_step: %g s exceeds the RK4 stability limit 2.8 / omega_max = "
+                                              "%.6g s (allowed: 0 (automatic) or %.3g .. %.6g s, or scheme "
+                                              "exponential)", h, m->limit, shortest, m->limit);
+    s->max_step = h > 0 ? h : (m->consistent ? AUTO_STEP_FRACTION * m->limit : INFINITY);
+    if (s->max_step < shortest)
+        return native_refuse(r, BRIDGE_ERROR, "%s: internal steps of %.3g s need more than max_internal_steps = %ld "
+                                              "for a %g s communication step (allowed: scheme exponential, fewer "
+                                              "modes, or a larger max_internal_steps)",
+                             h == 0 ? "scheme" : "internal_step", s->max_step, s->cap, MIN_COMMUNICATION_STEP);
+    return 0;
+}
+
 static void *init(const void *model, const double *params, double *x, NativeResult *r) {
     const ReframeModel *m = model;
     int nf = m->nf;
     ReframeSim *s = calloc(1, sizeof *s);
     if (!s || !(s->P = malloc(sizeof(double) * FFX_REFRAME_PARAM_SIZE(nf)))
-        || !(s->LP = malloc(sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf)))
+        || !(s->LP = malloc(sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf) * (size_t)m->n_loads))
         || !(s->EX = calloc((size_t)(24 * nf + 1), sizeof(double)))
         || !(s->work = malloc(sizeof(double) * FFX_REFRAME_WORK_SIZE(nf)))
         || !(s->ework = malloc(sizeof(double) * FFX_REFRAME_EXPONENTIAL_WORK_SIZE))
-        || !(s->out = malloc(sizeof(double) * FFX_REFRAME_OUTPUT_SIZE(nf, 1)))
+        || !(s->out = malloc(sizeof(double) * FFX_REFRAME_OUTPUT_SIZE(nf, m->n_points)))
+        || !(s->SV = calloc((size_t)(18 * m->n_loads), sizeof(double)))
+        || !(s->sv = calloc((size_t)(6 * m->n_loads), sizeof(double)))
         || !(s->y = malloc(sizeof(double) * FFX_REFRAME_STATE_SIZE(nf)))) {
         free_sim(s);
         native_refuse(r, BRIDGE_ERROR, "out of memory");
@@ -186,17 +247,23 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     s->m = m;
     for (int k = 0; k < N_ROLES; k++) s->roles[k] = m->role[k] >= 0 ? params[m->role[k]] : m->fixed[k];
     memcpy(s->P, m->P, sizeof(double) * FFX_REFRAME_PARAM_SIZE(nf));
-    memcpy(s->LP, m->LP, sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf));
+    memcpy(s->LP, m->LP, sizeof(double) * FFX_REFRAME_LOAD_STRIDE(nf) * (size_t)m->n_loads);
     int off[FFX_REFRAME_N_OFFSETS];
     ffx_reframe_offsets(nf, off);
     if (m->role[R_ZETA] >= 0) /* as flexfmu.linalg.modal_basis: damping 2 zeta omega */
         for (int j = 0; j < nf; j++) s->P[off[FFX_REFRAME_O_CF] + j] = 2.0 * s->roles[R_ZETA] * m->omega[j];
-    s->LP[0] = s->roles[R_FOLLOW] != 0.0 ? 1.0 : 0.0;
+    if (!m->free_body) s->LP[0] = s->roles[R_FOLLOW] != 0.0 ? 1.0 : 0.0;
     s->theta_max = 0.5 * pow(s->roles[R_TOL], 0.25);
     s->internal_step = s->roles[R_INTERNAL];
     s->cap = (long)s->roles[R_CAP];
     s->last_split = 0;
     double shortest = MIN_COMMUNICATION_STEP / (double)s->cap;
+    if (m->free_body && free_checks(s, shortest, r)) {
+        free_sim(s);
+        return NULL;
+    }
+    const double *w0 = s->roles + R_OMEGA0;
+    if (m->free_body) goto initial_state;
     if (!(s->internal_step == 0.0 || s->internal_step >= shortest)) {
         char shown[64];
         native_repr(s->internal_step, shown, sizeof shown);
@@ -207,7 +274,6 @@ static void *init(const void *model, const double *params, double *x, NativeResu
         free_sim(s);
         return NULL;
     }
-    const double *w0 = s->roles + R_OMEGA0;
     double omega_cap = (double)s->cap * s->theta_max / MIN_COMMUNICATION_STEP, omega0 = norm3(w0);
     if (!(omega0 <= omega_cap)) {
         int i = 0;
@@ -221,6 +287,7 @@ static void *init(const void *model, const double *params, double *x, NativeResu
         free_sim(s);
         return NULL;
     }
+initial_state:
     /* flexfmu.reframe.integrator.initial_state: the centre of mass at its mesh position, R = I, q = 0, qdot_R =
        A6inv [v0; omega0] */
     memset(x, 0, sizeof(double) * FFX_REFRAME_STATE_SIZE(nf));
@@ -239,8 +306,14 @@ static void *init(const void *model, const double *params, double *x, NativeResu
 
 /* The load values of the held inputs u: sv (one instant) and SV (the three stages of a held step). */
 static void load_values(ReframeSim *s, const double *u) {
-    for (int k = 0; k < 6; k++) s->sv[k] = (k < 3 || s->m->rotational) ? u[k] : 0.0;
-    for (int st = 0; st < 3; st++) memcpy(s->SV + 6 * st, s->sv, sizeof s->sv);
+    const ReframeModel *m = s->m;
+    if (m->free_body) {
+        for (int i = 0; i < m->n_loads; i++)
+            for (int k = 0; k < 6; k++) s->sv[6 * i + k] = k < m->loads[2 * i + 1] ? u[m->loads[2 * i] + k] : 0.0;
+    } else
+        for (int k = 0; k < 6; k++) s->sv[k] = (k < 3 || m->rotational) ? u[k] : 0.0;
+    size_t row = sizeof(double) * 6 * (size_t)m->n_loads;
+    for (int st = 0; st < 3; st++) memcpy(s->SV + 6 * m->n_loads * st, s->sv, row);
 }
 
 static int moment_refused(ReframeSim *s, const double *u, NativeResult *r) {
@@ -259,7 +332,8 @@ static int moment_refused(ReframeSim *s, const double *u, NativeResult *r) {
 static void kernel_outputs(ReframeSim *s, const double *x, const double *u, int search) {
     const ReframeModel *m = s->m;
     load_values(s, u);
-    ffx_reframe_outputs(s->P, s->LP, 1, NULL, m->nf, m->deformed, s->sv, x, m->PP, 1, m->Psi, m->psi_cols, m->dpn,
+    ffx_reframe_outputs(s->P, s->LP, m->n_loads, NULL, m->nf, m->deformed, s->sv, x, m->PP, m->n_points, m->Psi,
+                        m->psi_cols, m->dpn,
                         m->order, search ? m->n_nodes : 0, m->bc, m->br, m->n_blocks, m->sc, m->sr, m->n_super,
                         s->out, s->work);
 }
@@ -369,16 +443,121 @@ static long split(ReframeSim *s, const double *x, const double *u_before, const 
     return n;
 }
 
+static int culprit(void *sim, int what, const double *x, const double *u, double threshold);
+
+/* sqrt(v . v) (numpy.linalg.norm of a short vector) */
+static double norm_n(const double *v, int n) {
+    double acc = 0.0;
+    for (int k = 0; k < n; k++) acc += v[k] * v[k];
+    return sqrt(acc);
+}
+
+/* flexfmu.body.simulator._frame_global: [rot, R omega, R alpha] (global) from [q, omega, alpha] (body) */
+static void frame_global(const double *qoa, double *g) {
+    double n = norm_n(qoa, 4);
+    if (!(n > 0.0)) {
+        for (int k = 0; k < 9; k++) g[k] = NAN;
+        return;
+    }
+    double w = qoa[0] / n, v[3] = {qoa[1] / n, qoa[2] / n, qoa[3] / n};
+    if (w < 0.0) w = -w, v[0] = -v[0], v[1] = -v[1], v[2] = -v[2];
+    double sv = norm_n(v, 3), angle = 2.0 * atan2(sv, w), rot[3];
+    for (int a = 0; a < 3; a++) rot[a] = sv > 1e-12 ? v[a] * (angle / sv) : 2.0 * v[a];
+    /* flexfmu.core.rotation.rotation_matrix(rot).T = I + (sin t / t) K + ((1 - cos t) / t^2) K^2, K = skew(rot),
+       both coefficients as numpy.sinc */
+    double th = norm_n(rot, 3), x1 = FFX_PI * (th / FFX_PI), x2 = FFX_PI * (th / (2.0 * FFX_PI));
+    double ca = x1 == 0.0 ? 1.0 : sin(x1) / x1, sb = x2 == 0.0 ? 1.0 : sin(x2) / x2, cb = 0.5 * sb * sb;
+    double M[3][3] = {{0, rot[2], -rot[1]}, {-rot[2], 0, rot[0]}, {rot[1], -rot[0], 0}}; /* paper_skew(rot) */
+    double A[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            double mm = 0.0;
+            for (int k = 0; k < 3; k++) mm += M[i][k] * M[k][j];
+            A[i][j] = (i == j ? 1.0 : 0.0) + ca * M[i][j] + cb * mm;
+        }
+    for (int a = 0; a < 3; a++) {
+        g[a] = rot[a];
+        double wo = 0.0, al = 0.0;
+        for (int k = 0; k < 3; k++) wo += A[k][a] * qoa[4 + k], al += A[k][a] * qoa[7 + k]; /* R = A^T */
+        g[3 + a] = wo, g[6 + a] = al;
+    }
+}
+
+/* FreeEngine._rotation_count */
+static double rotation_count(const ReframeSim *s, double h, double w, double a) {
+    double wm = w + a * h, root = sqrt(wm * wm + 2.0 * a * s->theta_max);
+    return isfinite(root) ? h * (wm + root) / (2.0 * s->theta_max) : INFINITY;
+}
+
+/* flexfmu.body.engines.too_many_steps */
+static int free_too_many(ReframeSim *s, double needed, double h, double h_ok, const char *cause, NativeResult *r) {
+    char count[64];
+    if (isfinite(needed) && needed < 1e15) snprintf(count, sizeof count, "%.0f", ceil(needed));
+    else snprintf(count, sizeof count, "%.3g", needed);
+    if (h_ok >= MIN_COMMUNICATION_STEP)
+        return native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
+                                                "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
+                                                "or raise max_internal_steps", count, h, s->cap, round_down(h_ok));
+    return native_refuse(r, BRIDGE_ERROR, "%s: even a %g s communication step needs more than max_internal_steps = "
+                                          "%ld internal steps (allowed: a smaller value, or a larger "
+                                          "max_internal_steps)", cause, MIN_COMMUNICATION_STEP, s->cap);
+}
+
+/* The culprit's name of FreeEngine.culprit, or "state". */
+static const char *free_cause(const ReframeSim *s, const double *u) {
+    int j = culprit((void *)s, 1, NULL, u, 0.0);
+    return j >= 0 ? s->m->layout.input_names[j] : "state";
+}
+
+/* FreeEngine.split (header): the internal steps of a communication step h, or 0 after refusing. */
+static long free_split(ReframeSim *s, const double *x, const double *u, double t, double h, NativeResult *r) {
+    const ReframeModel *m = s->m;
+    long cap = s->cap, n;
+    char why[400];
+    if (!m->consistent && s->internal_step == 0) {
+        kernel_outputs(s, x, u, 0);
+        double w = norm_n(s->out + 10, 3), a = norm_n(s->out + 13, 3);
+        if (!(isfinite(w) && isfinite(a))) return 0; /* NATIVE_NOT_FINITE: the caller reports it */
+        double ratio = rotation_count(s, h, w, a);
+        if (!(ratio <= (double)cap)) {
+            double lo = 0.0, hi = h;
+            for (int k = 0; k < 200; k++) {
+                double mid = 0.5 * (lo + hi);
+                if (rotation_count(s, mid, w, a) <= (double)cap) lo = mid;
+                else hi = mid;
+            }
+            return free_too_many(s, ratio, h, lo, free_cause(s, u), r), 0;
+        }
+        n = (long)ceil(ratio * (1 - 1e-12));
+        if (n < 1) n = 1;
+        snprintf(why, sizeof why, "scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = %.3g rad "
+                                  "(|omega| = %.4g rad/s, |alpha| = %.4g rad/s^2, held)", s->theta_max, w, a);
+    } else {
+        double ratio = h / s->max_step * (1 - 1e-12);
+        if (!(ratio <= (double)cap))
+            return free_too_many(s, ratio, h, (double)cap * s->max_step, "internal_step", r), 0;
+        n = (long)ceil(ratio);
+        if (n < 1) n = 1;
+        if (s->internal_step > 0) snprintf(why, sizeof why, "internal_step = %g s", s->internal_step);
+        else snprintf(why, sizeof why, "scheme consistent (RK4): 90 %% of the stability limit %.4g s", m->limit);
+    }
+    if (m->log_split && n != s->last_split)
+        native_note(r, "t = %.6g s: communication step %g s in %ld internal step(s) of %.4g s: %s", t, h, n,
+                    h / (double)n, why);
+    s->last_split = n;
+    return n;
+}
+
 static int step_held(void *sim, double *x, const double *u_before, const double *u, double t, double h,
                      NativeResult *r) {
     ReframeSim *s = sim;
     const ReframeModel *m = s->m;
     int nf = m->nf;
     if (moment_refused(s, u, r)) return r->status;
-    long n = split(s, x, u_before, u, t, h, r);
+    long n = m->free_body ? free_split(s, x, u, t, h, r) : split(s, x, u_before, u, t, h, r);
     if (n == 0) return r->status >= BRIDGE_DISCARD ? r->status : NATIVE_NOT_FINITE;
     double dt = h / (double)n;
-    if (dt != s->ex_dt) { /* the Python integrator's per-dt coefficients, by the same C function */
+    if (dt != s->ex_dt && !m->consistent) { /* the Python integrator's per-dt coefficients, by the same C function */
         int off[FFX_REFRAME_N_OFFSETS];
         ffx_reframe_offsets(nf, off);
         if (ffx_reframe_exponential_coefficients(nf, s->P + off[FFX_REFRAME_O_K], s->P + off[FFX_REFRAME_O_CF], dt,
@@ -394,8 +573,8 @@ static int step_held(void *sim, double *x, const double *u_before, const double 
     memcpy(s->y, x, sizeof(double) * ny);
     double tk = t;
     int done = 0;
-    int status = ffx_reframe_steps(s->P, s->LP, 1, NULL, nf ? s->EX : NULL, nf, m->deformed, s->SV, 1, &tk, dt,
-                                   (int)n, s->y, &done, s->work);
+    int status = ffx_reframe_steps(s->P, s->LP, m->n_loads, NULL, (nf && !m->consistent) ? s->EX : NULL, nf,
+                                   m->deformed, s->SV, 1, &tk, dt, (int)n, s->y, &done, s->work);
     if (status != FFX_REFRAME_OK) return NATIVE_NOT_FINITE;
     memcpy(x, s->y, sizeof(double) * ny);
     return BRIDGE_OK;
@@ -410,7 +589,12 @@ static int outputs(void *sim, const double *x, const double *u, double *y, Nativ
     const ReframeModel *m = s->m;
     if (moment_refused(s, u, r)) return r->status;
     kernel_outputs(s, x, u, 1);
-    for (int k = 0; k < m->n_out; k++) y[k] = s->out[m->columns[k]];
+    double extra[9];
+    if (m->free_body) frame_global(s->out + 6, extra);
+    for (int k = 0; k < m->n_out; k++) {
+        int c = m->columns[k];
+        y[k] = c >= 0 ? s->out[c] : -1 - c < 9 ? extra[-1 - c] : m->extra[-1 - c - 9];
+    }
     for (int k = 0; k < m->n_out; k++)
         if (!isfinite(y[k])) return NATIVE_NOT_FINITE;
     return BRIDGE_OK;
@@ -423,6 +607,13 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
     const ReframeModel *m = ((ReframeSim *)sim)->m;
     int best = -1;
     double best_score = 0.0;
+    if (m->free_body) { /* FreeEngine.culprit: the held input of largest magnitude */
+        for (int k = 0; k < (int)m->layout.n_inputs; k++) {
+            double score = isnan(u[k]) ? INFINITY : fabs(u[k]);
+            if (score > best_score) best = k, best_score = score;
+        }
+        return what == 0 && !(best_score > threshold) ? -1 : best;
+    }
     for (int k = 0; k < 6; k++) {
         double score = k < 3 ? fabs(u[k]) * (1.0 / m->mass + m->arm * m->size / m->J_min)
                              : fabs(u[k]) * m->size / m->J_min;
