@@ -1,13 +1,13 @@
 # Over 500 lines on purpose: one job, a native FMU, whose parts (model file, modelDescription, model entries, binary,
 # sources, documentation) are each a short function over the same NativeSource; the format spec is its docstring.
 """Native FMUs: an FMI 2.0 co-simulation FMU whose binary is C only (no Python in the host), built from an FMU spec
-and a configuration (``flexfmu build --runtime native``) or from an exported clamped body (``flexfmu export ...
---runtime native``).
+and a configuration (``flexfmu build --runtime native``) or from an exported body, clamped or free (``flexfmu
+export ... --runtime native``).
 
 The binary is the same front as the Python FMUs' (csrc/flexfmu_fmi2.c: entry points, call-sequence table, FMU-state
 header, logging) compiled in its native variant and linked statically with the native bridge (csrc/flexfmu_native.c:
 variables, checks, time, FMU states) and a model kind (csrc/native_lti.c on flexfmu/native/csrc/lti_kernels.c for
-clamped bodies).  Everything about the model is data, in ``resources/flexfmu_model.bin`` (format below); the
+clamped bodies; csrc/native_reframe.c on flexfmu/native/csrc/reframe_kernels.c for free ones).  Everything about the model is data, in ``resources/flexfmu_model.bin`` (format below); the
 modelDescription comes from the same source as the Python FMU's (a pythonfmu slave over flexfmu.fmi.plumbing for
 the same spec, completed by flexfmu.fmi.build), so the variables, value references, units, descriptions and the
 DefaultExperiment are the Python FMU's.  What differs: parameters that shape the model (FFRBeam's scene, boundary,

@@ -21,7 +21,7 @@
  *               bridge then names "state")
  *
  * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c; the reframe kind (free bodies:
- * ReframeBody) native_reframe.c.  A new kind: its file
+ * ReframeBody, exported free bodies) native_reframe.c.  A new kind: its file
  * (native_<kind>.c) with one `const NativeKind native_<kind>_kind`, its line in KINDS, its writer in
  * flexfmu/fmi/native.py.
  *
