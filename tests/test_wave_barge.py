@@ -17,7 +17,9 @@ import pytest
 pytest.importorskip("capytaine")
 pytest.importorskip("meshio")
 
-from test_wave_bem_cosim import HEIGHT, RAMP, STEP, T_END, steady_amplitude          # noqa: E402
+from test_wave_bem_cosim import HEIGHT, RAMP, STEP, T_END                            # noqa: E402
+
+from flexfmu.wec.rao import steady_amplitude                                            # noqa: E402
 
 from flexfmu.body.build import build_body                                               # noqa: E402
 from flexfmu.body.simulator import FlexBodySimulator                                    # noqa: E402
