@@ -82,3 +82,22 @@ class Instance:
             self.fmu.freeInstance()       # fmpy unloads the library here too
             self.fmu = None
         shutil.rmtree(self.unzipped, ignore_errors=True)
+
+
+def error_messages(inst) -> list[str]:
+    """The messages an instance logged with status fmi2Error or worse."""
+    return [m for s, _, m in inst.log if s >= 3]
+
+
+def refusal_messages(fmu_files, action, name: str = "bad") -> list[list[str]]:
+    """For each FMU file: a new instance, ``action(instance)`` expected to be refused (Instance.expect_failure), and
+    the error messages it logged; compares the refusals of two runtimes of one model."""
+    logs = []
+    for fmu in fmu_files:
+        inst = Instance(fmu, name)
+        try:
+            inst.expect_failure(action, inst)
+            logs.append(error_messages(inst))
+        finally:
+            inst.free()
+    return logs

@@ -24,7 +24,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.validation import validate_fmu
 
-from fmu_helpers import Instance
+from fmu_helpers import Instance, error_messages, refusal_messages
 from host_tools import (compile_c_host, describe, ecos_binaries, ecos_times, extract_fmu, fresh_fmu_copy,
                         host_environment, jacobi_reference, run_host, value_references)
 
@@ -243,7 +243,7 @@ def test_other_configurations_equal_the_python_fmu(fmus, tmp_path, label):
         inst = Instance(fmu, "zeta")
         try:
             inst.expect_failure(inst.set, damping_ratio=0.05)
-            assert "built with damping_ratio = 0.01" in _messages(inst)[0]
+            assert "built with damping_ratio = 0.01" in error_messages(inst)[0]
         finally:
             inst.free()
 
@@ -361,8 +361,6 @@ def test_damaged_or_foreign_states_are_refused(native, fmus):
         python.free()
 
 
-def _messages(inst):
-    return [m for s, _, m in inst.log if s >= 3]
 
 
 BAD_CALLS = {
@@ -384,14 +382,7 @@ BAD_CALLS = {
 @pytest.mark.parametrize("label", list(BAD_CALLS))
 def test_refused_calls_give_the_python_fmus_status_and_message(native, fmus, label):
     """fmi2Error and the same one message as the Python FMU, word for word."""
-    logs = []
-    for fmu in (native["FFRBeam"], fmus["FFRBeam"]):
-        inst = Instance(fmu, "bad")
-        try:
-            inst.expect_failure(BAD_CALLS[label], inst)
-            logs.append(_messages(inst))
-        finally:
-            inst.free()
+    logs = refusal_messages((native["FFRBeam"], fmus["FFRBeam"]), BAD_CALLS[label])
     assert len(logs[0]) == 1 and logs[0] == logs[1], logs
 
 
@@ -407,7 +398,7 @@ def test_a_fixed_parameter_accepts_its_build_value_and_refuses_another(native, n
         default = {v.name: v.start for v in inst.md.modelVariables}[name]
         inst.set(**{name: {"true": True, "false": False}.get(default, default)})      # its build value: fine
         inst.expect_failure(inst.set, **{name: value})
-        (message,) = _messages(inst)
+        (message,) = error_messages(inst)
         assert message.startswith(f"fmi2Set{inst.types[name]}: {name}: got ")
         assert f"built with {name} = {built}" in message
         assert f"flexfmu build --runtime native --fmu FFRBeam --set {name}=" in message
@@ -421,17 +412,17 @@ def test_the_rebuild_command_keeps_the_other_fixed_values(native):
     inst = Instance(native["XFX"], "fixed")
     try:
         inst.expect_failure(inst.set, sensor_s=0.1)
-        (message,) = _messages(inst)
+        (message,) = error_messages(inst)
         assert ("rebuild it: flexfmu build --runtime native --fmu FFRBeam --set boundary=XFX --set load_s=0.3 "
                 "--set sensor_s=0.1 (or use" in message), message
         inst.log.clear()
         inst.expect_failure(inst.set, boundary="FXF")               # the changed one is not repeated
-        (message,) = _messages(inst)
+        (message,) = error_messages(inst)
         assert "rebuild it: flexfmu build --runtime native --fmu FFRBeam --set load_s=0.3 --set boundary=FXF (" \
             in message, message
         inst.log.clear()
         inst.expect_failure(inst.set, scene="my scene.json")       # a value the shell must see as one word
-        assert "--set 'scene=my scene.json' (" in _messages(inst)[0]
+        assert "--set 'scene=my scene.json' (" in error_messages(inst)[0]
     finally:
         inst.free()
 
@@ -447,7 +438,7 @@ def test_exported_body_refuses_bad_parameters_naming_them(cantilever, name, valu
         inst = Instance(fmu, "bad", **{name: value})
         try:
             inst.expect_failure(inst.fmu.exitInitializationMode)
-            (message,) = _messages(inst)
+            (message,) = error_messages(inst)
             assert message.startswith(f"{name}: "), message
             messages.append(message)
         finally:
@@ -490,7 +481,7 @@ def test_divergence_is_an_error_naming_what_the_python_fmu_names(native, fmus):
                 assert np.all(np.isfinite(inst.get("tip_u_x", "elastic_energy")))
             else:
                 raise AssertionError("the spinning rod did not diverge")
-            (message,) = _messages(inst)
+            (message,) = error_messages(inst)
             assert "diverged" in message
             found.append((k, message.split(":")[0]))
         finally:

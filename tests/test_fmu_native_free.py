@@ -16,7 +16,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fmu_helpers import Instance  # noqa: E402
+from fmu_helpers import Instance, error_messages, refusal_messages  # noqa: E402
 
 PLATE_IF = [{"name": "A", "point": [-0.5, 0.0, 0.01]}, {"name": "B", "point": [0.5, 0.0, 0.0], "radius": 0.03}]
 STEP = 1e-3
@@ -110,8 +110,6 @@ def test_no_python_in_the_binary(free_fmus, tmp_path):
     assert "python" not in libs.lower(), libs
 
 
-def _messages(inst):
-    return [m for s, _, m in inst.log if s >= 3]
 
 
 BAD = {
@@ -124,14 +122,7 @@ BAD = {
 
 @pytest.mark.parametrize("label", list(BAD))
 def test_bad_parameters_are_refused_as_by_the_python_fmu(free_fmus, label):
-    logs = []
-    for fmu in (free_fmus["native"], free_fmus["python"]):
-        inst = Instance(fmu, "bad")
-        try:
-            inst.expect_failure(BAD[label], inst)
-            logs.append(_messages(inst))
-        finally:
-            inst.free()
+    logs = refusal_messages((free_fmus["native"], free_fmus["python"]), BAD[label])
     assert len(logs[0]) == 1 and logs[0] == logs[1], logs
 
 
@@ -140,7 +131,7 @@ def test_the_scheme_is_fixed_at_build(free_fmus):
     try:
         inst.set(scheme="exponential")                                  # its build value: fine
         inst.expect_failure(inst.set, scheme="consistent")
-        (message,) = _messages(inst)
+        (message,) = error_messages(inst)
         assert "scheme" in message and "exponential" in message
     finally:
         inst.free()

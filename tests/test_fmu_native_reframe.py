@@ -14,7 +14,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fmu_helpers import Instance  # noqa: E402
+from fmu_helpers import Instance, error_messages, refusal_messages  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -123,8 +123,6 @@ def test_fmu_state_get_set_serialise_round_trip(native_reframe):
         b.free()
 
 
-def _messages(inst):
-    return [m for s, _, m in inst.log if s >= 3]
 
 
 BAD = {
@@ -139,14 +137,7 @@ BAD = {
 
 @pytest.mark.parametrize("label", list(BAD))
 def test_bad_parameters_and_inputs_are_refused_as_by_the_python_fmu(native_reframe, fmus, label):
-    logs = []
-    for fmu in (native_reframe["default"], fmus["ReframeBody"]):
-        inst = Instance(fmu, "bad")
-        try:
-            inst.expect_failure(BAD[label], inst)
-            logs.append(_messages(inst))
-        finally:
-            inst.free()
+    logs = refusal_messages((native_reframe["default"], fmus["ReframeBody"]), BAD[label])
     assert len(logs[0]) == 1 and logs[0] == logs[1], logs
 
 
@@ -155,7 +146,7 @@ def test_a_fixed_parameter_refuses_another_value(native_reframe):
     try:
         inst.set(n_flexible_modes=10)                                   # its build value: fine
         inst.expect_failure(inst.set, n_flexible_modes=12)
-        (message,) = _messages(inst)
+        (message,) = error_messages(inst)
         assert "built with n_flexible_modes = 10" in message
         assert "flexfmu build --runtime native --fmu ReframeBody --set n_flexible_modes=12" in message
     finally:
