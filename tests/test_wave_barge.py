@@ -17,26 +17,19 @@ import pytest
 pytest.importorskip("capytaine")
 pytest.importorskip("meshio")
 
-from test_wave_bem_cosim import HEIGHT, RAMP, STEP, T_END                            # noqa: E402
-
-from flexfmu.wec.rao import steady_amplitude                                            # noqa: E402
+from test_wave_bem_cosim import HEIGHT, STEP, T_END                                  # noqa: E402
 
 from flexfmu.body.build import build_body                                               # noqa: E402
-from flexfmu.body.simulator import FlexBodySimulator                                    # noqa: E402
 from flexfmu.errors import ParameterError                                               # noqa: E402
 from flexfmu.wec import bem                                                             # noqa: E402
-from flexfmu.wec.barge import BargeParameters, build_barge, split_added_mass           # noqa: E402
+from flexfmu.wec.barge import BargeInLoop, BargeParameters, build_barge, split_added_mass  # noqa: E402
 from flexfmu.wec.components import bem_added_mass_inf, bem_database                     # noqa: E402
 from flexfmu.wec.hydrostatics import INPUT_NAMES as HYDRO_INPUTS                        # noqa: E402
 from flexfmu.wec.hydrostatics import HydrostaticsConfig, HydrostaticsSimulator          # noqa: E402
+from flexfmu.wec.rao import RigidPlatform, cosimulated_motion, steady_amplitude          # noqa: E402
 from flexfmu.wec.wave import BoxParameters                                              # noqa: E402
-from flexfmu.wec.wave_excitation import WaveExcitationConfig, WaveExcitationSimulator  # noqa: E402
 
 AX = "xyz"
-#: the barge's outputs that Hydrostatics reads (Platform's names -> the body's)
-MOTION = {**{f"pos_{a}": f"hydro.pos_{a}" for a in AX}, **{f"vel_{a}": f"hydro.vel_{a}" for a in AX},
-          **{f"acc_{a}": f"hydro.acc_{a}" for a in AX}, **{f"rot_{a}": f"rot_{a}" for a in AX},
-          **{f"omega_{a}": f"omega_{a}" for a in AX}, **{f"alpha_{a}": f"alpha_{a}" for a in AX}}
 STIFF = BargeParameters(E=2.0e11, nu=0.3)      # steel-stiff: first elastic mode 319 Hz
 HDPE = BargeParameters(E=1.0e9, nu=0.42)       # the example's hull: first elastic mode 22 Hz
 
@@ -66,34 +59,11 @@ def bodies(ds):
 
 def cosimulate_barge(body, period: float, heading: float = 0.0, t_end: float = T_END, h: float = STEP):
     """Times, the motion of O xi (n, 6) (O's rigid fit, the frame's rotation), the elevation, and the largest
-    elastic displacement (m) of the barge in regular waves."""
-    wave = WaveExcitationSimulator(WaveExcitationConfig(wave_height=HEIGHT, wave_period=period, heading=heading,
-                                                        ramp_time=RAMP, hydrodynamics="bem"))
-    barge = FlexBodySimulator(body)
-    hydro = HydrostaticsSimulator(HydrostaticsConfig(hydrodynamics="bem", added_mass="point"))
-    n = round(t_end / h)
-    xi, eta = np.empty((n + 1, 6)), np.empty(n + 1)
-    bo, wo, ho = barge.outputs(), wave.outputs(), hydro.outputs()
-    elastic = 0.0
-
-    def record(k):
-        xi[k] = [bo[MOTION[f"pos_{a}"]] for a in AX] + [bo[f"rot_{a}"] for a in AX]
-        eta[k] = wo["eta"]
-    record(0)
-    for k in range(n):
-        wave.step(h)
-        wo = wave.outputs()
-        barge.set_inputs(**{f"{g}.{q}_{a}": o[f"{q}_{a}"] for g, o in (("wave", wo), ("hydro", ho))
-                            for q in "FM" for a in AX})
-        barge.step(h)
-        bo = barge.outputs()
-        hydro.set_inputs(**{name: bo[MOTION[name]] for name in HYDRO_INPUTS})
-        hydro.step(h)
-        ho = hydro.outputs()
-        record(k + 1)
-        if k % 50 == 0:
-            elastic = max(elastic, bo["max_elastic_displacement"])
-    return h * np.arange(n + 1), xi, eta, elastic
+    elastic displacement (m) of the barge in regular waves (Hydrostatics with added_mass = point)."""
+    barge = BargeInLoop(body)
+    t, xi, eta = cosimulated_motion(period, t_end, h, heading=heading, platform=barge,
+                                    hydro_config=HydrostaticsConfig(hydrodynamics="bem", added_mass="point"))
+    return t, xi, eta, barge.largest_elastic
 
 
 def test_added_mass_is_a_point_mass_the_body_carries(bodies, ds):
@@ -186,30 +156,12 @@ def test_flexible_barge_moves_as_the_rigid_one_and_bends_quasi_statically(bodies
 
 
 def cosimulate_platform(box: BoxParameters, period: float, heading: float, t_end: float = T_END, h: float = STEP):
-    """The rigid Platform of ``box`` in the same loop (as tests/test_wave_bem_cosim.py, any heading)."""
+    """The rigid Platform of ``box`` in the same loop."""
     from dataclasses import asdict
 
-    from flexfmu.wec.platform import PlatformConfig, PlatformSimulator
-    wave = WaveExcitationSimulator(WaveExcitationConfig(wave_height=HEIGHT, wave_period=period, heading=heading,
-                                                        ramp_time=RAMP, hydrodynamics="bem"))
-    platform = PlatformSimulator(PlatformConfig(**asdict(box), hydrodynamics="bem"))
-    hydro = HydrostaticsSimulator(HydrostaticsConfig(hydrodynamics="bem"))
-    n = round(t_end / h)
-    xi = np.empty((n + 1, 6))
-    po, wo, ho = platform.outputs(), wave.outputs(), hydro.outputs()
-    xi[0] = [po[f"pos_{a}"] for a in AX] + [po[f"rot_{a}"] for a in AX]
-    for k in range(n):
-        wave.step(h)
-        wo = wave.outputs()
-        platform.set_inputs(**{f"{g}_{q}_{a}": o[f"{q}_{a}"] for g, o in (("wave", wo), ("hydro", ho))
-                               for q in "FM" for a in AX})
-        platform.step(h)
-        po = platform.outputs()
-        hydro.set_inputs(**{name: po[name] for name in HYDRO_INPUTS[:12]})
-        hydro.step(h)
-        ho = hydro.outputs()
-        xi[k + 1] = [po[f"pos_{a}"] for a in AX] + [po[f"rot_{a}"] for a in AX]
-    return xi
+    from flexfmu.wec.platform import PlatformConfig
+    platform = RigidPlatform(PlatformConfig(**asdict(box), hydrodynamics="bem"))
+    return cosimulated_motion(period, t_end, h, heading=heading, platform=platform)[1]
 
 
 def test_stiff_barge_in_oblique_waves_moves_as_the_rigid_platform(bodies, ds):

@@ -242,3 +242,30 @@ def rigid_system(system, p: BargeParameters, hydrodynamics: str = "bem"):
         elif s.model in ("WaveExcitation", "Hydrostatics"):
             values[s.name] = {"hydrodynamics": hydrodynamics}
     return system.with_values(values)
+
+
+class BargeInLoop:
+    """The barge's simulator in Platform's place of flexfmu.wec.rao.cosimulated_motion (library simulators coupled
+    as the Gauss-Seidel master): wave and hydro loads at their interfaces, Hydrostatics' inputs from the hydro
+    interface's rigid fit and the frame's global rotation; keeps the largest elastic displacement seen, read every
+    ``every`` steps (its search grows with the mesh)."""
+
+    def __init__(self, body, every: int = 50):
+        from flexfmu.body.simulator import FlexBodySimulator
+        self.sim = FlexBodySimulator(body)
+        self.every, self.count, self.largest_elastic = every, 0, 0.0
+
+    def hold_loads(self, wave: dict, hydro: dict) -> None:
+        self.sim.set_inputs(**{f"{g}.{q}_{a}": o[f"{q}_{a}"] for g, o in (("wave", wave), ("hydro", hydro))
+                               for q in "FM" for a in "xyz"})
+
+    def step(self, h: float) -> None:
+        self.sim.step(h)
+        if self.count % self.every == 0:
+            self.largest_elastic = max(self.largest_elastic, self.sim.outputs()["max_elastic_displacement"])
+        self.count += 1
+
+    def motion(self) -> dict:
+        out = self.sim.outputs()
+        return {name: out[barge_name] for name, barge_name in _PLATFORM_OUTPUTS.items()
+                if not name.startswith("mount_")}

@@ -29,30 +29,52 @@ WINDOW = 8.0         # s: the steady amplitude is fitted over the last whole per
 HEIGHT = 0.02        # m: a = 0.01 m (the model is linear; the value only sets the scale)
 
 
+class RigidPlatform:
+    """The rigid Platform in the loop (Platform's names are Hydrostatics' inputs)."""
+
+    def __init__(self, config: PlatformConfig):
+        self.sim = PlatformSimulator(config)
+
+    def hold_loads(self, wave: dict, hydro: dict) -> None:
+        self.sim.set_inputs(**{f"{g}_{q}_{a}": o[f"{q}_{a}"] for g, o in (("wave", wave), ("hydro", hydro))
+                               for q in "FM" for a in AX})
+
+    def step(self, h: float) -> None:
+        self.sim.step(h)
+
+    def motion(self) -> dict:
+        """Hydrostatics' inputs (O's motion, global) from the platform's outputs."""
+        out = self.sim.outputs()
+        return {name: out.get(name, 0.0) for name in HYDRO_INPUTS}
+
+
 def cosimulated_motion(period: float, t_end: float, h: float = STEP, wave_config: WaveExcitationConfig = None,
-                       hydrodynamics: str = "bem"):
-    """Times (n,), platform motion xi (n, 6) and elevation eta at O (n,) of the co-simulated WEC in head seas:
-    regular waves of height HEIGHT, the given period and a RAMP s start, or the sea of wave_config."""
+                       hydrodynamics: str = "bem", *, heading: float = 0.0, platform=None,
+                       hydro_config: HydrostaticsConfig = None):
+    """Times (n,), platform motion xi (n, 6) and elevation eta at O (n,) of the co-simulated WEC: regular waves
+    of height HEIGHT, the given period and heading (deg) and a RAMP s start, or the sea of wave_config.
+    ``platform``: what stands in Platform's place (hold_loads(wave outputs, hydro outputs), step(h), motion() ->
+    Hydrostatics' inputs): the rigid Platform of the default box by default (flexfmu.wec.barge.BargeInLoop for the
+    flexible barge); ``hydro_config``: Hydrostatics' (default: the box's, with ``hydrodynamics``)."""
     wave = WaveExcitationSimulator(wave_config or WaveExcitationConfig(
-        wave_height=HEIGHT, wave_period=period, heading=0.0, ramp_time=RAMP, hydrodynamics=hydrodynamics))
-    platform = PlatformSimulator(PlatformConfig(hydrodynamics=hydrodynamics))
-    hydro = HydrostaticsSimulator(HydrostaticsConfig(hydrodynamics=hydrodynamics))
+        wave_height=HEIGHT, wave_period=period, heading=heading, ramp_time=RAMP, hydrodynamics=hydrodynamics))
+    platform = platform or RigidPlatform(PlatformConfig(hydrodynamics=hydrodynamics))
+    hydro = HydrostaticsSimulator(hydro_config or HydrostaticsConfig(hydrodynamics=hydrodynamics))
     n = round(t_end / h)
     xi, eta = np.empty((n + 1, 6)), np.empty(n + 1)
-    po, wo, ho = platform.outputs(), wave.outputs(), hydro.outputs()
+    mo, wo, ho = platform.motion(), wave.outputs(), hydro.outputs()
 
     def record(k):
-        xi[k] = [po[f"pos_{a}"] for a in AX] + [po[f"rot_{a}"] for a in AX]
+        xi[k] = [mo[f"pos_{a}"] for a in AX] + [mo[f"rot_{a}"] for a in AX]
         eta[k] = wo["eta"]
     record(0)
     for k in range(n):
         wave.step(h)
         wo = wave.outputs()
-        platform.set_inputs(**{f"{g}_{q}_{a}": o[f"{q}_{a}"] for g, o in (("wave", wo), ("hydro", ho))
-                               for q in "FM" for a in AX})
+        platform.hold_loads(wo, ho)
         platform.step(h)
-        po = platform.outputs()
-        hydro.set_inputs(**{name: po[name] for name in HYDRO_INPUTS})
+        mo = platform.motion()
+        hydro.set_inputs(**mo)
         hydro.step(h)
         ho = hydro.outputs()
         record(k + 1)
