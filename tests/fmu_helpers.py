@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import ctypes
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 from fmpy import extract, read_model_description
@@ -101,3 +103,13 @@ def refusal_messages(fmu_files, action, name: str = "bad") -> list[list[str]]:
         finally:
             inst.free()
     return logs
+
+
+def fmu_checker_findings(fmu) -> str:
+    """'' when fmu-manipulation-toolbox's checker (fmutool -check: XSD and semantic checks of the modelDescription)
+    finds the FMU compliant, else its report."""
+    fmutool = Path(sys.executable).with_name("fmutool")
+    assert fmutool.exists(), "fmu-manipulation-toolbox missing: install the project with its dev extra"
+    out = subprocess.run([fmutool, "-input", str(fmu), "-check"], capture_output=True, text=True, timeout=300)
+    text = out.stdout + out.stderr
+    return "" if "seems to be compliant with FMI-2.0" in text and "No semantic error" in text else text[-3000:]

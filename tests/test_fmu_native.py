@@ -24,7 +24,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.validation import validate_fmu
 
-from fmu_helpers import Instance, error_messages, refusal_messages
+from fmu_helpers import Instance, error_messages, fmu_checker_findings, refusal_messages
 from host_tools import (compile_c_host, describe, ecos_binaries, ecos_times, extract_fmu, fresh_fmu_copy,
                         host_environment, jacobi_reference, run_host, value_references)
 
@@ -126,6 +126,13 @@ def test_exported_model_description_is_the_python_fmus(cantilever):
 @pytest.mark.parametrize("which", ["FFRBeam", "XFX", "exported"])
 def test_fmpy_validate_reports_no_problems(native, cantilever, which):
     assert validate_fmu(str(cantilever["native"] if which == "exported" else native[which])) == []
+
+
+@pytest.mark.parametrize("which", ["FFRBeam", "exported"])
+def test_the_fmu_checker_finds_no_problem(native, cantilever, which):
+    """fmu-manipulation-toolbox's checker (fmutool -check: XSD and semantic checks of the modelDescription), as
+    for the Python FMUs (tests/test_fmu_hosts.py)."""
+    assert fmu_checker_findings(cantilever["native"] if which == "exported" else native[which]) == ""
 
 
 def test_the_binary_needs_no_python(native, cantilever):

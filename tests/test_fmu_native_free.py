@@ -16,7 +16,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fmu_helpers import Instance, error_messages, refusal_messages  # noqa: E402
+from fmu_helpers import Instance, error_messages, fmu_checker_findings, refusal_messages  # noqa: E402
 
 PLATE_IF = [{"name": "A", "point": [-0.5, 0.0, 0.01]}, {"name": "B", "point": [0.5, 0.0, 0.0], "radius": 0.03}]
 STEP = 1e-3
@@ -148,3 +148,9 @@ def test_a_too_long_step_is_discarded_as_by_the_python_fmu(free_fmus):
         finally:
             inst.free()
     assert logs[0] == logs[1] and len(logs[0]) == 1, logs
+
+
+def test_fmpy_validate_and_the_fmu_checker_find_no_problem(free_fmus):
+    from fmpy.validation import validate_fmu
+    assert validate_fmu(str(free_fmus["native"])) == []
+    assert fmu_checker_findings(free_fmus["native"]) == ""

@@ -14,7 +14,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 
 sys.path.insert(0, str(Path(__file__).parent))
-from fmu_helpers import Instance, error_messages, refusal_messages  # noqa: E402
+from fmu_helpers import Instance, error_messages, fmu_checker_findings, refusal_messages  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -164,3 +164,9 @@ def test_a_too_long_step_is_discarded_as_by_the_python_fmu(native_reframe, fmus)
         finally:
             inst.free()
     assert logs[0] == logs[1] and len(logs[0]) == 1, logs
+
+
+def test_fmpy_validate_and_the_fmu_checker_find_no_problem(native_reframe):
+    from fmpy.validation import validate_fmu
+    assert validate_fmu(str(native_reframe["default"])) == []
+    assert fmu_checker_findings(native_reframe["default"]) == ""
