@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Native against Python FMUs (docs/performance.md, "Native runtime"): one run, figures and ratios printed.
 
-    .venv/bin/python benchmarks/native_runtime.py [--hammer-seconds 60] [--out docs/native_runtime.md]
+    .venv/bin/python benchmarks/native_runtime.py [--hammer-seconds 60] [--reframe-only]
 
 1. Per-cycle cost (fmi2SetReal of the 3 force inputs + fmi2DoStep + fmi2GetReal of the 3 accelerometer outputs) of
    FFRBeam (defaults, 6 modes), native and Python, in the plain C host (examples/c_host, its own timer around the
@@ -14,6 +14,9 @@
    wall time (load, instantiate, stepping, exit) of the native FMU.
 4. The wave-converter example system (5 FMUs, 1 ms, 10 s, fmpy master) with the Python and with the native
    FFRBeam harvester.
+5. ReframeBody (defaults: the paper's plate, 51k DOFs), native and Python, in the C host: per-cycle cost (setReal
+   of F_x, F_y, F_z (a 10 ms pulse) + doStep (h = 1 ms) + getReal of out_acc_x/y/z); the native FMU also with
+   max_elastic_displacement read every cycle (its whole-mesh search, computed only when read).
 """
 from __future__ import annotations
 
@@ -32,6 +35,7 @@ sys.path.insert(0, str(ROOT / "tests"))   # host_tools: compile the example C ho
 
 FORCES = ("F_x", "F_y", "F_z")
 SENSOR = ("sensor_a_x", "sensor_a_y", "sensor_a_z")
+REFRAME_ACC = ("out_acc_x", "out_acc_y", "out_acc_z")
 
 
 def value_refs(fmu: Path) -> tuple[dict, str, str]:
@@ -41,17 +45,19 @@ def value_refs(fmu: Path) -> tuple[dict, str, str]:
 
 
 def c_host_cycle(host: Path, fmu: Path, n_steps: int, step: float, pulse: float, damping: float | None,
-                 workdir: Path) -> dict:
+                 workdir: Path, outputs=SENSOR) -> dict:
     """Run the C host (bare environment: no PYTHON*, no LD_PRELOAD); its loop time and the process wall time."""
     from fmpy import extract
     vr, guid, ident = value_refs(fmu)
-    folder = extract(str(fmu), unzipdir=str(workdir / f"{fmu.stem}-{n_steps}"))
+    folder = workdir / f"{fmu.parent.name}-{fmu.stem}-{n_steps}"
+    if not folder.exists():
+        extract(str(fmu), unzipdir=str(folder))
     cmd = [str(host), "--quiet", repr(step), str(n_steps), "--fmu", folder, ident, guid]
     if damping is not None:
         cmd += ["--set", "real", str(vr["damping_ratio"]), repr(damping)]
     for name, share in zip(FORCES, (1.0, 0.7, 0.4)):
         cmd += ["--pulse", str(vr[name]), repr(20.0 * share), repr(pulse)]
-    for name in SENSOR:
+    for name in outputs:
         cmd += ["--output", str(vr[name])]
     env = {"PATH": "/usr/bin:/bin", "HOME": str(workdir)}
     start = time.perf_counter()
@@ -130,11 +136,29 @@ def wave_converter_wall(fmu_dir: Path, harvester: Path, t_end: float) -> float:
     return time.perf_counter() - start
 
 
+def reframe_rows(host: Path, python: Path, native: Path, cycles: int, workdir: Path) -> None:
+    """5. ReframeBody native against Python in the C host (module docstring)."""
+    h, pulse = 1e-3, 0.01
+    print(f"ReframeBody (defaults), h = {h:g} s, cycle = setReal (F_x, F_y, F_z) + doStep + getReal "
+          f"({', '.join(REFRAME_ACC)}), {cycles} cycles:")
+    c_native = c_host_cycle(host, native, cycles, h, pulse, None, workdir, outputs=REFRAME_ACC)
+    c_max = c_host_cycle(host, native, cycles, h, pulse, None, workdir,
+                         outputs=REFRAME_ACC + ("max_elastic_displacement",))
+    c_python = c_host_cycle(host, python, cycles, h, pulse, None, workdir, outputs=REFRAME_ACC)
+    print(f"  {'host':8s} {'native (us)':>12s} {'Python (us)':>12s} {'Python / native':>16s}")
+    print(f"  {'C host':8s} {c_native['us_per_cycle']:12.2f} {c_python['us_per_cycle']:12.2f} "
+          f"{c_python['us_per_cycle'] / c_native['us_per_cycle']:16.1f}")
+    print(f"  native, max_elastic_displacement read too every cycle: {c_max['us_per_cycle']:.2f} us "
+          f"(+{c_max['us_per_cycle'] - c_native['us_per_cycle']:.2f} us: the whole-mesh search, only when read)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--hammer-seconds", type=float, default=60.0)
     parser.add_argument("--cycles", type=int, default=20000, help="cycles per cost measurement (native x10)")
     parser.add_argument("--wec-seconds", type=float, default=10.0)
+    parser.add_argument("--reframe-cycles", type=int, default=5000, help="cycles per ReframeBody measurement")
+    parser.add_argument("--reframe-only", action="store_true", help="only 5. (ReframeBody in the C host)")
     args = parser.parse_args(argv)
 
     from host_tools import compile_c_host
@@ -147,6 +171,11 @@ def main(argv=None) -> int:
         tmp = Path(tmp)
         python_dir, native_dir = tmp / "python", tmp / "native"
         build(python_dir)
+        host = compile_c_host(tmp)
+        if args.reframe_only:
+            reframe_rows(host, python_dir / "ReframeBody.fmu", build_registry_fmu("ReframeBody", out=native_dir),
+                         args.reframe_cycles, tmp)
+            return 0
         native = build_registry_fmu("FFRBeam", out=native_dir)
         wec = load_system(ROOT / "examples" / "wave_converter" / "OspSystemStructure.xml")
         harvester_values = {k: v for k, v in wec.by_model("FFRBeam")[0].initial_values.items()
@@ -154,7 +183,6 @@ def main(argv=None) -> int:
         native_harvester = build_registry_fmu("FFRBeam", harvester_values, target=native_dir / "harvester" /
                                               "FFRBeam.fmu")
         python = python_dir / "FFRBeam.fmu"
-        host = compile_c_host(tmp)
         h = 1e-4
         print(f"FFRBeam (defaults), h = {h:g} s, cycle = setReal (3) + doStep + getReal (3):")
         c_native = c_host_cycle(host, native, 10 * args.cycles, h, 1e-3, None, tmp)
@@ -181,6 +209,8 @@ def main(argv=None) -> int:
         print(f"wave-converter example, {args.wec_seconds:g} s at 1 ms, fmpy master: Python harvester "
               f"{w_python:.2f} s wall, native harvester {w_native:.2f} s (ratio {w_python / w_native:.2f}); "
               "the other four FMUs are Python")
+        reframe_rows(host, python_dir / "ReframeBody.fmu", build_registry_fmu("ReframeBody", out=native_dir),
+                     args.reframe_cycles, tmp)
     return 0
 
 

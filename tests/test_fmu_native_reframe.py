@@ -125,6 +125,68 @@ def test_fmu_state_get_set_serialise_round_trip(native_reframe):
 
 
 
+def searches(inst) -> int:
+    """fmi2Terminate, then the count of max_elastic_displacement searches the reframe kind logs there (logAll)."""
+    inst.fmu.terminate()
+    (line,) = [m for s, category, m in inst.log if s == 0 and category == "logAll"
+               and m.startswith("max_elastic_displacement: ")]
+    return int(line.split()[1])
+
+
+def deferred_read_record(fmu, python_fmu, cheap: str, forces: dict, n=40):
+    """Three instances stepped alike (``forces``: input name -> peak of a 10 ms half-sine): ``lazy`` reads only
+    ``cheap`` each step and max_elastic_displacement every 10th step, twice (after the others: the deferred
+    computation alone), and once more after restoring an FMU state taken at step n/2 (taken without it), and after
+    restoring that state serialised and deserialised; ``eager``
+    and the Python FMU read both together.  Returns the search counts and the values read."""
+    lazy, eager = Instance(fmu, "lazy").initialize(), Instance(fmu, "eager").initialize()
+    python = Instance(python_fmu, "python").initialize()
+    try:
+        rows, lazy_max, python_rows = [], {}, []
+        for k in range(n):
+            shape = np.sin(np.pi * k * H / 0.01) if k * H < 0.01 else 0.0
+            for inst in (lazy, eager, python):
+                inst.set(**{name: peak * shape for name, peak in forces.items()})
+                inst.fmu.doStep(currentCommunicationPoint=k * H, communicationStepSize=H)
+            rows.append(eager.get(cheap, "max_elastic_displacement"))
+            assert eager.get("max_elastic_displacement") == [rows[-1][1]]     # still valid: not searched again
+            python_rows.append(python.get(cheap, "max_elastic_displacement"))
+            assert lazy.get(cheap) == [rows[-1][0]]
+            if k == n // 2:
+                state = lazy.fmu.getFMUstate()
+            if k % 10 == 9:
+                lazy_max[k] = lazy.get("max_elastic_displacement")[0]
+                assert lazy.get("max_elastic_displacement") == [lazy_max[k]]
+        data = lazy.fmu.serializeFMUstate(state)
+        lazy.fmu.setFMUstate(state)
+        lazy_max["restored"] = lazy.get("max_elastic_displacement")[0]
+        lazy.fmu.freeFMUstate(state)
+        lazy.fmu.setFMUstate(lazy.fmu.deSerializeFMUstate(data))
+        lazy_max["deserialised"] = lazy.get("max_elastic_displacement")[0]
+        return {"lazy": searches(lazy), "eager": searches(eager), "lazy_max": lazy_max, "rows": np.array(rows),
+                "python": np.array(python_rows)}
+    finally:
+        for inst in (lazy, eager, python):
+            inst.free()
+
+
+def test_max_elastic_displacement_is_computed_only_when_read(native_reframe, fmus):
+    """The whole-mesh search runs at initialisation (every output once, as the Python FMU) and then only when
+    max_elastic_displacement is read, once per state; computed alone it equals the value computed with the other
+    outputs (bit for bit) and the Python FMU's."""
+    n = 40
+    got = deferred_read_record(native_reframe["default"], fmus["ReframeBody"], "pos_x", {"F_x": 35.0, "F_z": 35.0},
+                               n=n)
+    assert got["eager"] == 1 + n
+    assert got["lazy"] == 1 + 4 + 2                   # initialisation, 4 reads, the restored states
+    rows = got["rows"]
+    assert all(got["lazy_max"][k] == rows[k, 1] for k in (9, 19, 29, 39))
+    assert got["lazy_max"]["restored"] == got["lazy_max"]["deserialised"] == rows[n // 2, 1]
+    assert np.max(rows[:, 1]) > 0
+    scale = np.max(np.abs(got["python"]), axis=0)
+    assert np.all(np.max(np.abs(rows - got["python"]), axis=0) <= 1e-10 * scale)
+
+
 BAD = {
     "tolerance out of range": lambda i: (i.set(tolerance=2.0), i.initialize()),
     "damping_ratio out of range": lambda i: (i.set(damping_ratio=1.0), i.initialize()),

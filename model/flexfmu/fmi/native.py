@@ -60,6 +60,11 @@ Entries every native FMU has (read by csrc/flexfmu_native.c):
                                     values (shell-quoted): the refusal of another value names the command with
                                     these and the new NAME=VALUE
     messages                        strings: logged (status OK) at fmi2ExitInitializationMode
+    outputs.deferred                int32 (n_deferred): the outputs (their index among the outputs) computed only
+                                    when one of them is read, as the Python FMU's (the spec's deferred_outputs,
+                                    flexfmu.fmi.plumbing: e.g. max_elastic_displacement, a search over the mesh);
+                                    the others are computed at the first read after a step without them; absent:
+                                    none
 
 and the kind's entries, ``<kind>.*`` (the LTI kind's: csrc/native_lti.c's header comment).
 """
@@ -328,6 +333,8 @@ def model_entries(source: NativeSource, guid: str, slave) -> dict:
         "rebuild.names": list(source.rebuild_settings),
         "rebuild.values": [shlex.quote(v) for v in source.rebuild_settings.values()],
         "messages": [str(m) for m in source.messages],
+        "outputs.deferred": np.array([outputs.index(name) for name in getattr(source.spec, "deferred_outputs", ())],
+                                     np.int32),
     }
     if source.kind == "lti":
         entries.update(_lti_entries(source.lti, inputs, outputs, params, source))

@@ -11,7 +11,8 @@
  *    is refused naming the parameter, its build value and the rebuild command; runtime ones settable until
  *    fmi2ExitInitializationMode and range-checked there), inputs (held from fmi2DoStep on: outputs read
  *    after new inputs are set are still those of the last step's inputs), outputs (computed when first read
- *    after a step);
+ *    after a step or a restored state; the deferred ones, the model file's outputs.deferred (a costly search such
+ *    as max_elastic_displacement), only when one of them is read: two validity flags);
  *  - refuses non-finite values when set, a currentCommunicationPoint that is not the FMU's time, a state or
  *    output that is not finite or beyond the model's divergence limit (naming the input behind it, else
  *    "state"), each with one message through the front's log (fmi2Error, category logStatusError; a step a
@@ -392,13 +393,16 @@ typedef struct {
     ParameterRule *rules; /* per runtime parameter */
     const char **input_names, **output_names, **param_names;
     int *input_vr, *output_vr;
+    unsigned char *deferred; /* per output: computed only when read (outputs.deferred) */
     double divergence_limit;
     char *const *messages;
 } Model;
 
-/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values. */
+/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values.  outputs_valid:
+   the outputs but the deferred ones are those of x with held; deferred_valid: the deferred ones too (implies
+   outputs_valid). */
 typedef struct {
-    int initialised, outputs_valid;
+    int initialised, outputs_valid, deferred_valid;
     double time, start_time;
     double *values;       /* per variable: parameters' and inputs' values (outputs, strings: 0) */
     double *held;         /* the inputs the kind got at the last step (or initialisation) */
@@ -427,6 +431,7 @@ static void free_model(Model *m) {
     free(m->param_names);
     free(m->input_vr);
     free(m->output_vr);
+    free(m->deferred);
     free_file(m->file);
     memset(m, 0, sizeof *m);
 }
@@ -492,7 +497,9 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
     m->input_vr = calloc(counts[INPUT] + 1, sizeof *m->input_vr);
     m->output_vr = calloc(counts[OUTPUT] + 1, sizeof *m->output_vr);
     m->rules = calloc(counts[PARAMETER] + 1, sizeof *m->rules);
-    if (!m->input_names || !m->output_names || !m->param_names || !m->input_vr || !m->output_vr || !m->rules)
+    m->deferred = calloc(counts[OUTPUT] + 1, 1);
+    if (!m->input_names || !m->output_names || !m->param_names || !m->input_vr || !m->output_vr || !m->rules
+        || !m->deferred)
         goto memory;
     for (size_t i = 0; i < m->n_vars; i++) { /* every index used exactly once */
         Variable *v = &m->vars[i];
@@ -535,6 +542,20 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
         m->messages = messages->data;
         m->n_messages = messages->count;
     }
+    if (native_entry(f, "outputs.deferred")) { /* the outputs computed only when read (none if absent) */
+        const int32_t *deferred;
+        uint32_t nd[1];
+        if (native_i32(f, "outputs.deferred", 1, NULL, &deferred, nd, why, why_size) < 0) return -1;
+        for (uint32_t k = 0; k < nd[0]; k++) {
+            if (deferred[k] < 0 || (size_t)deferred[k] >= counts[OUTPUT] || m->deferred[deferred[k]]) {
+                snprintf(why, why_size, "model file: outputs.deferred has a bad output index %d", (int)deferred[k]);
+                return -1;
+            }
+            m->deferred[deferred[k]] = 1;
+        }
+        m->layout.n_deferred = nd[0];
+    }
+    m->layout.deferred = m->deferred;
     m->layout.input_names = m->input_names;
     m->layout.output_names = m->output_names;
     m->layout.param_names = m->param_names;
@@ -568,6 +589,7 @@ static void snapshot_free(Snapshot *s) {
 static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
     to->initialised = from->initialised;
     to->outputs_valid = from->outputs_valid;
+    to->deferred_valid = from->deferred_valid;
     to->time = from->time;
     to->start_time = from->start_time;
     memcpy(to->values, from->values, m->n_vars * sizeof *to->values);
@@ -585,7 +607,7 @@ static void clear(Slave *s) {
     memset(now->held, 0, m->layout.n_inputs * sizeof *now->held);
     memset(now->outputs, 0, m->layout.n_outputs * sizeof *now->outputs);
     memset(now->x, 0, m->nx * sizeof *now->x);
-    now->initialised = now->outputs_valid = 0;
+    now->initialised = now->outputs_valid = now->deferred_valid = 0;
     now->time = now->start_time = 0.0;
     if (s->sim) m->kind->free_sim(s->sim);
     s->sim = NULL;
@@ -664,11 +686,18 @@ static void *make_sim(Slave *s, const double *values, double *x) {
 
 static void time_text(double t, char *text, size_t size) { native_repr(t, text, size); }
 
-static void bad_outputs(const Slave *s, const double *y, char *names, size_t size) {
+/* Which outputs a computation checks: all, all but the deferred ones, the deferred ones only. */
+enum { ALL_OUTPUTS, CHEAP_OUTPUTS, DEFERRED_OUTPUTS };
+
+static int checked(const Model *m, size_t i, int which) {
+    return which == ALL_OUTPUTS || (which == DEFERRED_OUTPUTS) == (m->deferred[i] != 0);
+}
+
+static void bad_outputs(const Slave *s, const double *y, int which, char *names, size_t size) {
     names[0] = '\0';
     int shown = 0;
     for (size_t i = 0; i < s->m.layout.n_outputs; i++) {
-        if (isfinite(y[i])) continue;
+        if (!checked(&s->m, i, which) || isfinite(y[i])) continue;
         size_t used = strlen(names);
         if (shown++ < 4) snprintf(names + used, size - used, "%s%s", used ? ", " : "", s->m.output_names[i]);
     }
@@ -678,32 +707,59 @@ static void bad_outputs(const Slave *s, const double *y, char *names, size_t siz
     }
 }
 
-/* Compute the outputs of the current state and held inputs (a refusal when one is not finite). */
-static int read_outputs(Slave *s) {
+/* One computation of outputs into y (which: what it computes; a refusal when one of them is not finite). */
+static int compute_outputs(Slave *s, double *y, int which) {
     Snapshot *now = &s->now;
-    if (!s->sim) return BRIDGE_OK; /* before initialisation: the start values */
+    const Model *m = &s->m;
     NativeResult r = new_result(s);
-    double *y = s->scratch_y;
-    int status = s->m.kind->outputs(s->sim, now->x, now->held, y, &r);
+    int status = which == DEFERRED_OUTPUTS ? m->kind->deferred_outputs(s->sim, now->x, now->held, y, &r)
+                                           : m->kind->outputs(s->sim, now->x, now->held, y, which == ALL_OUTPUTS, &r);
     if (status == BRIDGE_OK) {
-        for (size_t i = 0; i < s->m.layout.n_outputs; i++)
-            if (!isfinite(y[i])) status = NATIVE_NOT_FINITE;
+        for (size_t i = 0; i < m->layout.n_outputs; i++)
+            if (checked(m, i, which) && !isfinite(y[i])) status = NATIVE_NOT_FINITE;
     }
     if (status == NATIVE_NOT_FINITE) {
         char names[512], t[64];
-        bad_outputs(s, y, names, sizeof names);
-        int j = s->m.kind->culprit(s->sim, 1, now->x, now->held, 1e300);
+        bad_outputs(s, y, which, names, sizeof names);
+        int j = m->kind->culprit(s->sim, 1, now->x, now->held, 1e300);
         if (j >= 0)
             return refuse(s, BRIDGE_ERROR, "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: "
-                                           "inputs within the model's range", s->m.input_names[j], now->held[j],
+                                           "inputs within the model's range", m->input_names[j], now->held[j],
                           names, now->start_time + now->time);
         time_text(now->start_time + now->time, t, sizeof t);
         return refuse(s, BRIDGE_ERROR, "%s: not finite at t = %s s (the inputs or parameters drive the model beyond "
                                        "its range)", names, t);
     }
     if (status != BRIDGE_OK) return refuse(s, status, "outputs: %s", r.message);
-    memcpy(now->outputs, y, s->m.layout.n_outputs * sizeof *y);
-    now->outputs_valid = 1;
+    return BRIDGE_OK;
+}
+
+/* Compute the outputs of the current state and held inputs that are not valid yet: those but the deferred ones,
+   and the deferred ones too when `with_deferred` (a refusal when one is not finite). */
+static int read_outputs(Slave *s, int with_deferred) {
+    Snapshot *now = &s->now;
+    const Model *m = &s->m;
+    if (!s->sim) return BRIDGE_OK; /* before initialisation: the start values */
+    /* without the kind's deferred_outputs, the deferred outputs come with the others */
+    if (m->layout.n_deferred == 0 || !m->kind->deferred_outputs) with_deferred = 1;
+    double *y = s->scratch_y;
+    size_t bytes = m->layout.n_outputs * sizeof *y;
+    if (!now->outputs_valid) {
+        memcpy(y, now->outputs, bytes); /* the places of outputs not computed keep their last values */
+        int all = with_deferred || m->layout.n_deferred == 0;
+        int status = compute_outputs(s, y, all ? ALL_OUTPUTS : CHEAP_OUTPUTS);
+        if (status != BRIDGE_OK) return status;
+        memcpy(now->outputs, y, bytes);
+        now->outputs_valid = 1;
+        now->deferred_valid = all;
+    }
+    if (with_deferred && !now->deferred_valid) { /* the others valid: the deferred ones alone */
+        memcpy(y, now->outputs, bytes);
+        int status = compute_outputs(s, y, DEFERRED_OUTPUTS);
+        if (status != BRIDGE_OK) return status;
+        memcpy(now->outputs, y, bytes);
+        now->deferred_valid = 1;
+    }
     return BRIDGE_OK;
 }
 
@@ -774,11 +830,11 @@ static int exit_initialization_mode(Slave *s) {
     memcpy(now->x, x, s->m.nx * sizeof *x);
     now->time = 0.0;
     now->initialised = 1;
-    now->outputs_valid = 0;
+    now->outputs_valid = now->deferred_valid = 0;
     for (size_t j = 0; j < s->m.layout.n_inputs; j++) now->held[j] = now->values[s->m.input_vr[j]];
     memcpy(s->state_held, now->held, s->m.layout.n_inputs * sizeof *now->held);
     for (size_t k = 0; k < s->m.n_messages; k++) note(s, s->m.messages[k]);
-    return read_outputs(s); /* every output once: a problem shows here rather than at a later read */
+    return read_outputs(s, 1); /* every output once: a problem shows here rather than at a later read */
 }
 
 static int simple_call(void *slave, BridgeSimpleCall call) {
@@ -786,6 +842,12 @@ static int simple_call(void *slave, BridgeSimpleCall call) {
     switch (call) {
     case CALL_EXIT_INITIALIZATION_MODE: return exit_initialization_mode(s);
     case CALL_RESET: clear(s); return BRIDGE_OK;
+    case CALL_TERMINATE:
+        if (s->sim && s->m.kind->report) {
+            NativeResult r = new_result(s);
+            s->m.kind->report(s->sim, &r);
+        }
+        return BRIDGE_OK;
     default: return BRIDGE_OK;
     }
 }
@@ -808,7 +870,7 @@ static int do_step(void *slave, double current_time, double h) {
                                        "with fmi2SetFMUstate to step from another time)", got, expected);
     }
     for (size_t j = 0; j < m->layout.n_inputs; j++) now->held[j] = now->values[m->input_vr[j]];
-    now->outputs_valid = 0; /* from here on the outputs are those of another state */
+    now->outputs_valid = now->deferred_valid = 0; /* from here on the outputs are those of another state */
     double t = now->time + h;
     if (!isfinite(t)) {
         char at[64];
@@ -882,12 +944,19 @@ static int get_values(void *slave, BridgeValueType type, const unsigned int *vr,
     Slave *s = slave;
     const char *function = GET_NAMES[type];
     if (refuse_reference(s, function, type, vr, nvr, 0) != BRIDGE_OK) return BRIDGE_ERROR;
-    for (size_t i = 0; i < nvr; i++) {
-        const Variable *v = &s->m.vars[vr[i]];
-        if (v->causality == OUTPUT && s->sim && !s->now.outputs_valid) {
-            int status = read_outputs(s);
+    if (s->sim && !s->now.deferred_valid) { /* the outputs read: computed once, the deferred ones only if asked */
+        int any = 0, deferred = 0;
+        for (size_t i = 0; i < nvr; i++) {
+            const Variable *v = &s->m.vars[vr[i]];
+            if (v->causality == OUTPUT) any = 1, deferred |= s->m.deferred[v->index];
+        }
+        if ((any && !s->now.outputs_valid) || deferred) {
+            int status = read_outputs(s, deferred);
             if (status != BRIDGE_OK) return status;
         }
+    }
+    for (size_t i = 0; i < nvr; i++) {
+        const Variable *v = &s->m.vars[vr[i]];
         double value = v->causality == OUTPUT ? s->now.outputs[v->index] : s->now.values[vr[i]];
         switch (type) {
         case VALUE_REAL: ((double *)values)[i] = value; break;
@@ -1000,8 +1069,8 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
 
 static int get_state(void *slave, void **state) {
     Slave *s = slave;
-    if (s->sim && !s->now.outputs_valid) {
-        int status = read_outputs(s);
+    if (s->sim && !s->now.outputs_valid) { /* the deferred outputs stay as they are: computed when read */
+        int status = read_outputs(s, 0);
         if (status != BRIDGE_OK) return status;
     }
     Snapshot *copy = malloc(sizeof *copy);
@@ -1045,6 +1114,7 @@ static int set_state(void *slave, void *state) {
     snapshot_copy(m, &s->now, from);
     memcpy(s->state_held, from->held, m->layout.n_inputs * sizeof *from->held);
     s->now.outputs_valid = from->initialised; /* the outputs of the state's last step, as taken */
+    s->now.deferred_valid = from->initialised && from->deferred_valid;
     return BRIDGE_OK;
 }
 
@@ -1053,8 +1123,9 @@ static size_t serialized_size(const Model *m) {
 }
 
 /* Layout (little-endian): "FXNATIVE", u32 STATE_VERSION, u32 n_vars, u32 n_inputs, u32 n_outputs, u32 nx,
-   u32 flags (1: initialised, 2: outputs valid), f64 time (since the start), f64 start time, f64 values[n_vars]
-   (parameters, inputs; 0 for outputs and strings), f64 held[n_inputs], f64 outputs[n_outputs], f64 x[nx]. */
+   u32 flags (1: initialised, 2: outputs valid, 4: deferred outputs valid too; a state without 4 has them computed
+   when read), f64 time (since the start), f64 start time, f64 values[n_vars] (parameters, inputs; 0 for outputs and
+   strings), f64 held[n_inputs], f64 outputs[n_outputs], f64 x[nx]. */
 static int serialize_state(void *slave, void *state, char *bytes, size_t *size) {
     Slave *s = slave;
     const Model *m = &s->m;
@@ -1073,7 +1144,8 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
     put32(b + 16, (uint32_t)m->layout.n_inputs);
     put32(b + 20, (uint32_t)m->layout.n_outputs);
     put32(b + 24, (uint32_t)m->nx);
-    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (st->outputs_valid ? 2 : 0)));
+    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (st->outputs_valid ? 2 : 0)
+                             | (st->outputs_valid && st->deferred_valid ? 4 : 0)));
     unsigned char *at = b + 32;
     put_f64(at, st->time), at += 8;
     put_f64(at, st->start_time), at += 8;
@@ -1101,7 +1173,7 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     if (size != serialized_size(m)) return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected %zu)",
                                                   prefix, size, serialized_size(m));
     uint32_t flags = le32(b + 28);
-    if (flags > 3) return refuse(s, BRIDGE_ERROR, "%s (bad flags)", prefix);
+    if (flags > 7) return refuse(s, BRIDGE_ERROR, "%s (bad flags)", prefix);
     Snapshot *st = malloc(sizeof *st);
     if (!st || snapshot_alloc(m, st) < 0) {
         if (st) snapshot_free(st);
@@ -1110,6 +1182,7 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     }
     st->initialised = flags & 1;
     st->outputs_valid = (flags & 2) != 0;
+    st->deferred_valid = (flags & 6) == 6;
     const unsigned char *at = b + 32;
     st->time = f64_of(at), at += 8;
     st->start_time = f64_of(at), at += 8;

@@ -274,7 +274,8 @@ static int step(void *sim, double *x, const double *in, double t, double h, Nati
     return NATIVE_NOT_FINITE; /* the maps or the state overflow: the bridge names the culprit */
 }
 
-static int outputs(void *sim, const double *x, const double *in, double *y, NativeResult *r) {
+static int outputs(void *sim, const double *x, const double *in, double *y, int include_deferred, NativeResult *r) {
+    (void)include_deferred; /* no deferred outputs */
     LtiSim *s = sim;
     const LtiModel *m = s->m;
     assemble(s, in);

@@ -36,6 +36,11 @@
  * with wm = w + a h, w, a = |omega|, |alpha| of the state with the inputs now held, theta = 0.5 tolerance^(1/4);
  * otherwise n = ceil(h / max_step (1 - 1e-12)), max_step = internal_step, or 90 % of the RK4 limit (consistent).
  *
+ * The max elastic displacement (kernel column 22 + 2 nf, a search over every node) is the layout's deferred output
+ * (the model file's outputs.deferred, from the spec's deferred outputs): outputs(..., include_deferred = 0) skips
+ * the search, deferred_outputs does only the search (ffx_reframe_max_node_norm on q_F of x: the value
+ * ffx_reframe_outputs gives), and report notes at fmi2Terminate how many searches were done.
+ *
  * A communication step h with the inputs held is n equal internal steps, n as ReframeBodySimulator._split:
  * internal_step > 0: ceil(h / internal_step (1 - 1e-12)); internal_step = 0: the rotation per internal step,
  * |omega| h + |alpha| h^2 / 2 at the step's start (omega, alpha of the state with the inputs the previous step
@@ -72,6 +77,8 @@ typedef struct {
     double limit;
     int64_t *order;
     double arm, J_min, size, mass;
+    int search_column;  /* the max elastic displacement's kernel column (22 + 2 nf) */
+    int search_always;  /* an output that is not deferred needs the search */
 } ReframeModel;
 
 typedef struct {
@@ -82,6 +89,7 @@ typedef struct {
     double roles[N_ROLES];
     double theta_max, internal_step, max_step;
     long cap, last_split;
+    long n_steps, n_searches; /* communication steps done, max elastic displacement searches (report) */
 } ReframeSim;
 
 static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
@@ -166,6 +174,16 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
             goto bad_index;
     for (int k = 0; k < N_ROLES; k++)
         if (m->role[k] >= (int32_t)layout->n_params) goto bad_index;
+    m->search_column = 22 + 2 * nf;
+    for (int k = 0; k < m->n_out; k++) {
+        int deferred = layout->deferred && layout->deferred[k];
+        if (deferred && m->columns[k] != m->search_column) {
+            snprintf(why, why_size, "the model file defers output %s, which the reframe kind computes with the "
+                                    "others (only max_elastic_displacement can be deferred)", layout->output_names[k]);
+            goto fail;
+        }
+        if (!deferred && m->columns[k] == m->search_column) m->search_always = 1;
+    }
     return m;
 bad_index:
     snprintf(why, why_size, "the model file's reframe index maps point outside the model or the FMU's variables");
@@ -577,6 +595,7 @@ static int step_held(void *sim, double *x, const double *u_before, const double 
                                    m->deformed, s->SV, 1, &tk, dt, (int)n, s->y, &done, s->work);
     if (status != FFX_REFRAME_OK) return NATIVE_NOT_FINITE;
     memcpy(x, s->y, sizeof(double) * ny);
+    s->n_steps++;
     return BRIDGE_OK;
 }
 
@@ -584,20 +603,52 @@ static int step(void *sim, double *x, const double *u, double t, double h, Nativ
     return step_held(sim, x, u, u, t, h, r);
 }
 
-static int outputs(void *sim, const double *x, const double *u, double *y, NativeResult *r) {
+static int outputs(void *sim, const double *x, const double *u, double *y, int include_deferred, NativeResult *r) {
     ReframeSim *s = sim;
     const ReframeModel *m = s->m;
+    const unsigned char *deferred = m->layout.deferred;
     if (moment_refused(s, u, r)) return r->status;
-    kernel_outputs(s, x, u, 1);
+    int search = include_deferred || m->search_always;
+    kernel_outputs(s, x, u, search);
+    s->n_searches += search && m->n_nodes > 0;
     double extra[9];
     if (m->free_body) frame_global(s->out + 6, extra);
+    int bad = 0;
     for (int k = 0; k < m->n_out; k++) {
+        if (!include_deferred && deferred && deferred[k]) continue; /* not computed: its place left */
         int c = m->columns[k];
         y[k] = c >= 0 ? s->out[c] : -1 - c < 9 ? extra[-1 - c] : m->extra[-1 - c - 9];
+        bad |= !isfinite(y[k]);
     }
+    return bad ? NATIVE_NOT_FINITE : BRIDGE_OK;
+}
+
+/* The deferred outputs (the max elastic displacement): the search ffx_reframe_outputs does, on the same q_F. */
+static int deferred_outputs(void *sim, const double *x, const double *u, double *y, NativeResult *r) {
+    (void)u, (void)r;
+    ReframeSim *s = sim;
+    const ReframeModel *m = s->m;
+    const double *q = x + 12 + FFX_REFRAME_N_RIGID; /* eta = [q_R (6), q_F (nf), ...] */
+    double value = FFX_REFRAME_NOT_COMPUTED;
+    if (m->n_nodes > 0) {
+        value = ffx_reframe_max_node_norm(m->Psi, m->psi_cols, FFX_REFRAME_N_RIGID, m->dpn, m->order, m->n_nodes,
+                                          m->bc, m->br, m->n_blocks, m->sc, m->sr, m->n_super, q, m->nf);
+        s->n_searches++;
+    }
+    int bad = 0;
     for (int k = 0; k < m->n_out; k++)
-        if (!isfinite(y[k])) return NATIVE_NOT_FINITE;
-    return BRIDGE_OK;
+        if (m->layout.deferred && m->layout.deferred[k]) y[k] = value, bad |= !isfinite(value);
+    return bad ? NATIVE_NOT_FINITE : BRIDGE_OK;
+}
+
+/* At fmi2Terminate: how often the max elastic displacement was searched for (only when read, or when an output that
+   is not deferred needs it). */
+static void report(void *sim, NativeResult *r) {
+    const ReframeSim *s = sim;
+    native_note(r, "max_elastic_displacement: %ld search(es) over the %d nodes in %ld communication step(s) (%s)",
+                s->n_searches, s->m->n_nodes, s->n_steps,
+                s->m->search_always ? "computed with every output"
+                                    : "deferred: computed only when read, once per state");
 }
 
 /* The held input most likely behind an overflow (ReframeBodySimulator._overflow's scores: each input's
@@ -624,4 +675,4 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
 }
 
 const NativeKind native_reframe_kind = {"reframe", load, free_model, state_size, init, free_sim, step, outputs,
-                                        culprit, step_held};
+                                        culprit, step_held, deferred_outputs, report};
