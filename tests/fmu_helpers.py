@@ -113,3 +113,18 @@ def fmu_checker_findings(fmu) -> str:
     out = subprocess.run([fmutool, "-input", str(fmu), "-check"], capture_output=True, text=True, timeout=300)
     text = out.stdout + out.stderr
     return "" if "seems to be compliant with FMI-2.0" in text and "No semantic error" in text else text[-3000:]
+
+
+def discard_messages(fmu_files, step_size: float, **start) -> list[list[str]]:
+    """For each FMU file: an initialised instance with ``start`` values, one fmi2DoStep of ``step_size`` from 0
+    expected to be discarded (fmi2Discard), and the messages logged with that status."""
+    logs = []
+    for fmu in fmu_files:
+        inst = Instance(fmu, "cap", **start).initialize()
+        try:
+            inst.expect_failure(inst.fmu.doStep, currentCommunicationPoint=0.0, communicationStepSize=step_size,
+                                status=2)
+            logs.append([m for s, _, m in inst.log if s == 2])
+        finally:
+            inst.free()
+    return logs
