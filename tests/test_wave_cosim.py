@@ -179,3 +179,18 @@ def test_harvester_point_per_boundary_and_errors(tmp_path):
     with pytest.raises(FlexfmuError, match="diverged"):          # far outside the limit
         run(system.with_values({"wave": {"ramp_time": 0.0}}), 3.0, 0.01, scheme="jacobi", backend="library")
     assert math.isfinite(GS_LIMIT)
+
+
+def test_step_limit_finds_the_narrow_band_below_the_wide_instability():
+    """Gauss-Seidel stability of the example comes in bands (the rod's modes aliased by the step): a narrow one at
+    2.25-2.26 ms (its 5th mode, 219 Hz, at the Nyquist frequency 1/(2h)) below the wide instability from 4.14 ms.
+    step_limit's fine scan (ratio 1.05) finds the narrow band; a coarse one (ratio ~1.43) steps over it."""
+    from flexfmu.cosim.masters import step_limit
+    system = load_system(SYSTEM)
+    fine = step_limit(system, rtol=0.002)
+    coarse = step_limit(system, rtol=0.002, scan_ratio=1.43)
+    print(f"\nGauss-Seidel step limit: fine scan {fine * 1e3:.4f} ms, coarse scan {coarse * 1e3:.4f} ms")
+    assert 2.2e-3 < fine < 2.26e-3
+    assert spectral_radius(system, fine) <= 1 + STABILITY_TOLERANCE
+    assert spectral_radius(system, 2.26e-3) > 1 + 1e-3            # the band, at a step of its own
+    assert coarse > 4e-3
