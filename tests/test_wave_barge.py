@@ -183,3 +183,11 @@ def test_stiff_barge_in_oblique_waves_moves_as_the_rigid_platform(bodies, ds):
               f"{100 * abs(zr - ref) / abs(ref):.2f} %)")
         assert abs(zb - zr) / abs(zr) < 0.005, name
         assert abs(zb - ref) / abs(ref) < 0.02, name
+
+
+@pytest.mark.parametrize("field, value, allowed", [("thickness", 0.0, "> 0"), ("nu", 0.5, "0 <= nu < 0.5"),
+                                                   ("elements", (4, 2), "three integers"), ("E", -1.0, "> 0")])
+def test_bad_barge_parameters_name_the_field_and_its_range(field, value, allowed):
+    from flexfmu.wec.barge import slab_mesh
+    with pytest.raises(ParameterError, match=rf"{field}: got .*allowed: {allowed}"):
+        slab_mesh(BargeParameters(**{field: value}))

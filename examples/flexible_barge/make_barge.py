@@ -35,7 +35,7 @@ def main(argv=None) -> int:
 
     wec = load_system(ROOT / "examples" / "wave_converter" / "OspSystemStructure.xml")
     f_max = args.f_max if args.f_max is not None else 1.5 * harvester_f1(wec)
-    params = BargeParameters(E=args.E, nu=0.42)
+    params = BargeParameters(E=args.E)
     A_inf = bem_added_mass_inf(bem_database(params.box))
     with tempfile.TemporaryDirectory() as tmp:
         body = build_barge(params, tmp, A_inf=A_inf, f_max=f_max, tolerance=1e-2)

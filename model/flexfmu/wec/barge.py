@@ -19,8 +19,8 @@ Hydrostatics applies the rest, -(A_inf - A_body) a, from the body's acceleration
 (parameter added_mass = "point").  That rest is small against the mass it acts on: |A_11 - A_33| /
 (m + A_33) = 0.40 for the example box, which keeps the lagged part stable (measured in the tests).
 
-Model size ("no more than the scene needs"): the modes up to f_max (default 3x the harvester's first clamped
-frequency: the barge's vibration that reaches the harvester) plus the interfaces' static correction
+Model size ("no more than the scene needs"): the modes up to f_max (examples/flexible_barge uses 1.5x the
+harvester's first clamped frequency: the barge's vibration that can reach the harvester) plus the interfaces' static correction
 (flexfmu.sizing.interfaces); the waves themselves (0.3 - 1.3 Hz) excite the rigid motion and the
 quasi-static bending that the static correction carries exactly.
 """
@@ -34,8 +34,8 @@ import numpy as np
 from flexfmu.errors import ParameterError
 from flexfmu.wec.wave import BoxParameters
 
-#: hull material of the example: a glass-fibre laminate (E, nu); the density follows from the mass
-LAMINATE = {"E": 2.0e10, "nu": 0.3}
+#: hull material of the example: HDPE-like (E, nu); the density follows from the mass
+HULL = {"E": 1.0e9, "nu": 0.42}
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,23 @@ class BargeParameters:
     elements: tuple = (10, 6, 1)
     mount: tuple = (0.0, 0.0)
     deck_patch: float = 0.1
-    E: float = LAMINATE["E"]
-    nu: float = LAMINATE["nu"]
+    E: float = HULL["E"]
+    nu: float = HULL["nu"]
+
+    def check(self) -> "BargeParameters":
+        """Self, or ParameterError naming the field and its range."""
+        from flexfmu.core.checks import finite
+        for name in ("thickness", "deck_patch", "E"):
+            value = getattr(self, name)
+            if not (finite(value) and value > 0):
+                raise ParameterError(name, f"got {value!r}", "> 0")
+        if not (finite(self.nu) and 0.0 <= self.nu < 0.5):
+            raise ParameterError("nu", f"got {self.nu!r}", "0 <= nu < 0.5")
+        if not (len(self.elements) == 3 and all(isinstance(n, int) and n >= 1 for n in self.elements)):
+            raise ParameterError("elements", f"got {self.elements!r}", "three integers >= 1 (x, y, z)")
+        if not (finite(self.z_center) and len(self.mount) == 2 and all(finite(v) for v in self.mount)):
+            raise ParameterError("mount", f"got {self.mount!r}, z_center {self.z_center!r}", "finite numbers")
+        return self
 
     @property
     def mount_point(self) -> tuple:
@@ -73,7 +88,7 @@ def slab_mesh(p: BargeParameters):
     nodes within deck_patch of the mount point in x and y)."""
     import meshio
 
-    nx, ny, nz = p.elements
+    nx, ny, nz = p.check().elements
     L, B, t = p.box.length, p.box.beam, p.thickness
     # a (2n+1)^3 lattice of which the hexahedra's corner and mid-edge nodes are kept
     xs = np.linspace(-L / 2, L / 2, 2 * nx + 1)
