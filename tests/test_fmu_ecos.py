@@ -207,27 +207,36 @@ def build_pair_ssp(fmus, folder: Path) -> Path:
 
 
 # ---------------------------------------------------------------- tests
-def test_ecos_cli_one_fmu_in_process_with_a_scenario(ecos, fmus, home, tmp_path):
-    """`ecos simulate --path FFRBeam.fmu`: the FMU in the ecos process (instance name "instance"),
-    default parameters (the CLI sets none for a bare FMU), a load switched by a scenario."""
-    outputs = ["sensor_a_x", "sensor_a_z", "reaction_F_z", "reaction_M_x"]
-    steps = 20
-    fmu = fresh_fmu_copy(fmus["FFRBeam"], tmp_path / "fmu")
+SCENARIO_OUTPUTS = ["sensor_a_x", "sensor_a_z", "reaction_F_z", "reaction_M_x"]
+
+
+def scenario_run(ecos, fmu, tmp_path, home, steps: int = 20):
+    """`ecos simulate --path FMU` (an FFRBeam; instance name "instance", its default parameters) with a scenario
+    switching F_z at 0 and 0.01 s: (times, printed outputs, message for failures, inputs_at(t) for
+    jacobi_reference, columns)."""
     load = {0.0: 150.0, 0.01: -60.0}
+    columns = [("instance", o) for o in SCENARIO_OUTPUTS]
     scenario = write_scenario(tmp_path / "scenario.xml", [(t, "instance::F_z", v) for t, v in load.items()])
-    config = write_csv_config(tmp_path / "csv.xml", [("instance", o) for o in outputs])
-    proc, env, csv_path, message = run_ecos(ecos, fmu, steps, tmp_path, home, "--scenarioConfig", scenario,
-                                            "--csvConfig", config)
+    config = write_csv_config(tmp_path / "csv.xml", columns)
+    proc, env, csv_path, message = run_ecos(ecos, fresh_fmu_copy(fmu, tmp_path / "fmu"), steps, tmp_path, home,
+                                            "--scenarioConfig", scenario, "--csvConfig", config)
     check_ecos_ran(proc, message)
-    times, texts = read_ecos_csv(csv_path, [("instance", o) for o in outputs], message)
+    times, texts = read_ecos_csv(csv_path, columns, message)
 
     def inputs_at(t):   # scenario actions apply when |t - t_action| <= 1e-9
         hits = [v for ta, v in load.items() if abs(t - ta) <= 1e-9]
         return {"instance": {"F_z": hits[0]}} if hits else {}
-    reference = jacobi_reference({"instance": (fmus["FFRBeam"], {})}, (), [("instance", o) for o in outputs],
-                                 ecos_times(steps, H), inputs_at)
+    return times, texts, message, inputs_at, columns
+
+
+def test_ecos_cli_one_fmu_in_process_with_a_scenario(ecos, fmus, home, tmp_path):
+    """`ecos simulate --path FFRBeam.fmu`: the FMU in the ecos process (instance name "instance"),
+    default parameters (the CLI sets none for a bare FMU), a load switched by a scenario."""
+    steps = 20
+    times, texts, message, inputs_at, columns = scenario_run(ecos, fmus["FFRBeam"], tmp_path, home, steps)
+    reference = jacobi_reference({"instance": (fmus["FFRBeam"], {})}, (), columns, ecos_times(steps, H), inputs_at)
     assert np.allclose(times, H * np.arange(steps + 1), atol=1e-9)
-    assert_printed_equal(texts, reference, [("instance", o) for o in outputs], message)
+    assert_printed_equal(texts, reference, columns, message)
 
 
 @pytest.mark.parametrize("name", list(SINGLE))

@@ -805,29 +805,16 @@ def test_ecos_cli_runs_the_native_fmu_in_process_and_through_proxyfmu(ecos, nati
     proxyfmu process with start values (a fixed parameter at its build value, the runtime damping): the CSV equals
     fmpy's numbers printed the same way."""
     sys.path.insert(0, str(Path(__file__).parent))
-    from test_fmu_ecos import (assert_printed_equal, check_ecos_ran, read_ecos_csv, run_ecos, write_csv_config,
-                               write_scenario, write_ssd)
+    from test_fmu_ecos import (SCENARIO_OUTPUTS, assert_printed_equal, check_ecos_ran, read_ecos_csv, run_ecos,
+                               scenario_run, write_csv_config, write_ssd)
     home = tmp_path / "home"
     home.mkdir()
-    outputs = ["sensor_a_x", "sensor_a_z", "reaction_F_z", "reaction_M_x"]
+    outputs = SCENARIO_OUTPUTS
     steps = 20
-    fmu = fresh_fmu_copy(native["FFRBeam"], tmp_path / "fmu")
-    load = {0.0: 150.0, 0.01: -60.0}
-    scenario = write_scenario(tmp_path / "scenario.xml", [(t, "instance::F_z", v) for t, v in load.items()])
-    config = write_csv_config(tmp_path / "csv.xml", [("instance", o) for o in outputs])
-    proc, env, csv_path, message = run_ecos(ecos, fmu, steps, tmp_path, home, "--scenarioConfig", scenario,
-                                            "--csvConfig", config)
-    check_ecos_ran(proc, message)
-    times, texts = read_ecos_csv(csv_path, [("instance", o) for o in outputs], message)
-
-    def inputs_at(t):
-        hits = [v for ta, v in load.items() if abs(t - ta) <= 1e-9]
-        return {"instance": {"F_z": hits[0]}} if hits else {}
-    reference = jacobi_reference({"instance": (native["FFRBeam"], {})}, (), [("instance", o) for o in outputs],
-                                 ecos_times(steps, H), inputs_at)
-    assert_printed_equal(texts, reference, [("instance", o) for o in outputs], message)
-    python = jacobi_reference({"instance": (fmus["FFRBeam"], {})}, (), [("instance", o) for o in outputs],
-                              ecos_times(steps, H), inputs_at)
+    _, texts, message, inputs_at, columns = scenario_run(ecos, native["FFRBeam"], tmp_path, home, steps)
+    reference = jacobi_reference({"instance": (native["FFRBeam"], {})}, (), columns, ecos_times(steps, H), inputs_at)
+    assert_printed_equal(texts, reference, columns, message)
+    python = jacobi_reference({"instance": (fmus["FFRBeam"], {})}, (), columns, ecos_times(steps, H), inputs_at)
     assert np.max(np.abs(reference - python) / np.abs(python).max(axis=0)) <= RTOL
 
     start = {"boundary": "XFX", "damping_ratio": 0.02, "load_s": 0.3, "F_z": 150.0, "base_a_x": 0.5}
