@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 
@@ -23,7 +24,7 @@ def build_fmus(out: Path) -> dict[str, Path]:
 class Instance:
     """One FMU instance, on its own extraction, with a log list; vr lookup by name; set/get by name."""
 
-    def __init__(self, fmu: Path, name: str = "instance", **start_values):
+    def __init__(self, fmu: Path, name: str = "instance", *, start_time: float = 0.0, **start_values):
         self.md = read_model_description(str(fmu))
         self.unzipped = extract(str(fmu))
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
@@ -42,7 +43,7 @@ class Instance:
         self.fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipped,
                              modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
         self.fmu.instantiate(callbacks=callbacks, loggingOn=True)
-        self.fmu.setupExperiment(startTime=0.0)
+        self.fmu.setupExperiment(startTime=start_time)
         self.fmu.enterInitializationMode()
         self.set(**start_values)
 
@@ -128,3 +129,29 @@ def discard_messages(fmu_files, step_size: float, **start) -> list[list[str]]:
         finally:
             inst.free()
     return logs
+
+
+def clock_and_constant_step_runs(fmu, inputs: dict, step: float, n: int, t0: float = 1e3, **start):
+    """Every output after each of n steps (arrays (n, n_outputs), outputs in modelDescription order) from two
+    hosts stepping the FMU with the same held ``inputs`` from t0: one passing h = t(k+1) - t(k) with
+    t(k) = t0 + k step, as fmpy.simulate_fmu, libcosim and fmusim do (steps that differ in their last bits: by
+    about eps t0 / step relative), and one passing the first of those steps every time, as a constant-step host
+    does.  Also returns the largest relative difference of the clock steps from the first."""
+    md = read_model_description(str(fmu))
+    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
+    clock_steps = [(t0 + (k + 1) * step) - (t0 + k * step) for k in range(n)]
+    runs = []
+    for steps in (clock_steps, [clock_steps[0]] * n):
+        inst = Instance(fmu, "clock", start_time=t0, **start).initialize()
+        try:
+            inst.set(**inputs)
+            t, rows = t0, []
+            for h in steps:
+                inst.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+                t += h
+                rows.append(inst.get(*outputs))
+            runs.append(np.array(rows))
+        finally:
+            inst.free()
+    jitter = max(abs(h - clock_steps[0]) for h in clock_steps) / clock_steps[0]
+    return runs[0], runs[1], jitter

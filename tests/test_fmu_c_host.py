@@ -165,3 +165,19 @@ def test_c_host_runs_an_exported_fmu_beside_a_built_in_one_in_a_clean_environmen
     env = clean_environment(tmp_path)
     proc = run_c_host(host, env, tmp_path, [(exported, "Rod"), (fmus["FFRBeam"], "FFRBeam")])
     check_run(proc, env, [fmpy_reference(exported, "Rod"), fmpy_reference(fmus["FFRBeam"], "FFRBeam")])
+
+
+def test_c_host_with_clock_steps_gives_the_constant_step_numbers(fmus, host, home, tmp_path):
+    """--clock-steps passes h = (k + 1) H - k H, as fmpy.simulate_fmu, libcosim and fmusim do: steps that differ
+    from H in their last bits.  The FMU takes them as H (flexfmu.core.step_size), so its numbers are the
+    constant-step run's, bit for bit (printed with 17 digits)."""
+    steps = {(k + 1) * H - k * H for k in range(N_STEPS)}
+    assert len(steps) > 1
+    env = host_environment(home)
+    runs = []
+    for label, options in (("constant", ()), ("clock", ("--clock-steps",))):
+        (tmp_path / label).mkdir()
+        proc = run_c_host(host, env, tmp_path / label, [(fmus["FFRBeam"], "FFRBeam")], *options)
+        assert proc.returncode == 0, describe(proc, env)
+        runs.append(proc.stdout)
+    assert runs[0] == runs[1]

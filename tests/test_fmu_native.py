@@ -271,6 +271,18 @@ def base_motion_record(fmu, t_end=0.3, **start):
     return simulate_fmu(str(fmu), stop_time=t_end, step_size=H, output_interval=H, input=signals, start_values=start)
 
 
+@pytest.mark.parametrize("runtime", ["python", "native"])
+def test_exported_clamped_body_in_a_clock_host_equals_a_constant_step_host_bit_for_bit(cantilever, runtime):
+    """Steps h = t(k+1) - t(k) from t = 1000 s, differing in their last bits, reuse the first step's maps
+    (flexfmu.core.step_size): the same computation as a constant-step host, so the same bits."""
+    from fmu_helpers import clock_and_constant_step_runs
+    from flexfmu.core.step_size import STEP_RTOL
+    inputs = {"tip.F_y": 5.0, "base_a_z": 9.81, "base_w_x": 0.5, "base_w_z": 1.0}
+    clock, constant, jitter = clock_and_constant_step_runs(cantilever[runtime], inputs, H, 300, t0=1e3)
+    assert 0 < jitter < STEP_RTOL
+    assert np.array_equal(clock, constant)
+
+
 @pytest.mark.parametrize("start", [{}, {"damping_ratio": 0.05}, {"internal_step": 2.5e-4}],
                          ids=["defaults", "damping", "internal-steps"])
 def test_exported_clamped_body_under_base_motion_equals_the_python_fmu(cantilever, start):

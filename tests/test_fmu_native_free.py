@@ -88,6 +88,23 @@ def test_native_free_body_scheme_consistent_equals_the_python_fmu(free_fmus):
     assert max(diff.values()) <= 1e-10, diff
 
 
+@pytest.mark.parametrize("runtime", ["python", "native"])
+def test_clock_host_steps_stay_within_the_stated_bound(free_fmus, runtime):
+    """Steps h = t(k+1) - t(k) from t = 1000 s share the first step's exponential coefficients; the stages take the
+    host's step.  Bound (flexfmu.core.step_size): the coefficients differ by <= jitter * omega_max dt relative per
+    step, so after n steps the outputs differ normwise by <= n * (jitter * (1 + omega_max dt) + rounding)."""
+    from fmu_helpers import clock_and_constant_step_runs
+    from flexfmu.core.step_size import STEP_RTOL
+    n = 150
+    clock, constant, jitter = clock_and_constant_step_runs(free_fmus[runtime], {"A.F_x": 20.0, "B.F_y": -10.0},
+                                                           STEP, n, t0=1e3)
+    assert 0 < jitter < STEP_RTOL
+    omega_max_dt = 2.0        # generous for the retained modes: f_max = 200 Hz gives omega dt = 1.3 at 1 ms
+    bound = n * (jitter * (1 + omega_max_dt) + 16 * np.finfo(float).eps)
+    worst = np.max(np.linalg.norm(clock - constant, axis=1) / np.linalg.norm(constant, axis=1))
+    assert worst <= bound, (worst, bound)
+
+
 def test_frame_global_matches_the_python_formula(free_fmus):
     """rot_*, omega_*, alpha_* of the native FMU recomputed from its own q, omega_k, alpha_k by _frame_global."""
     from flexfmu.body.simulator import _frame_global

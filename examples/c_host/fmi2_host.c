@@ -1,6 +1,6 @@
 /* A minimal FMI 2.0 co-simulation host in C: what a non-Python FMI tool does with our FMUs.
  *
- *   fmi2_host [--runs N] [--reload] [--quiet] STEP N_STEPS FMU [FMU...]
+ *   fmi2_host [--runs N] [--reload] [--quiet] [--clock-steps] STEP N_STEPS FMU [FMU...]
  *   FMU := --fmu UNZIPPED_DIR MODEL_IDENTIFIER GUID
  *          [--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]...
  *          [--output VR]...
@@ -13,7 +13,8 @@
  * fmi2FreeInstance for every instance.  --runs N does N runs in sequence, each with new instances;
  * the libraries stay loaded between runs unless --reload (dlclose and dlopen again).  --pulse holds VALUE on
  * input VR for the steps that start before DURATION s, then 0 (a hammer blow).  --quiet prints only each
- * FMU's last line per run.  The stepping loop of each run (fmi2SetReal, fmi2DoStep, fmi2GetReal and the
+ * FMU's last line per run.  --clock-steps passes each step as h = t(k+1) - t(k) with t(k) = k STEP, as
+ * fmpy.simulate_fmu, libcosim and fmusim do: steps that differ from STEP in their last bits.  The stepping loop of each run (fmi2SetReal, fmi2DoStep, fmi2GetReal and the
  * printing) is timed with CLOCK_MONOTONIC and reported on stderr as "fmi2_host: run R: N steps x M FMUs in
  * S s (C us per cycle)".
  *
@@ -174,7 +175,7 @@ static double now_s(void) {
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, int quiet) {
+static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, int quiet, int clock_steps) {
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     int status = OK, started = 0;
     for (int i = 0; i < n_fmus; i++) {
@@ -198,12 +199,15 @@ static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, in
     double start = now_s();
     for (int k = 0; k < n_steps; k++) {
         double t = k * step;
+        /* --clock-steps: each step as the difference of the host's clock, as fmpy.simulate_fmu, libcosim and
+           fmusim compute it; it differs from STEP in its last bits */
+        double h = clock_steps ? (k + 1) * step - t : step;
         for (int i = 0; i < n_fmus; i++) {
             Fmu *f = &fmus[i];
             for (int j = 0; j < f->n_pulse; j++) f->pulse_now[j] = t < f->pulse_until[j] ? f->pulse_value[j] : 0.0;
             if ((f->n_in && !CALL(f, fmi2SetReal, f->in_vr, (size_t)f->n_in, f->in_value)) ||
                 (f->n_pulse && !CALL(f, fmi2SetReal, f->pulse_vr, (size_t)f->n_pulse, f->pulse_now)) ||
-                !CALL(f, fmi2DoStep, t, step, fmi2True)) {
+                !CALL(f, fmi2DoStep, t, h, fmi2True)) {
                 status = CALL_FAILED;
                 goto cleanup;
             }
@@ -240,7 +244,7 @@ cleanup:
 }
 
 static int usage(const char *program, const char *problem) {
-    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] [--quiet] STEP N_STEPS --fmu DIR ID GUID "
+    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] [--quiet] [--clock-steps] STEP N_STEPS --fmu DIR ID GUID "
                     "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]... "
                     "[--output VR]... [--fmu ...]\n",
             problem, program);
@@ -249,12 +253,13 @@ static int usage(const char *program, const char *problem) {
 
 int main(int argc, char **argv) {
     Fmu fmus[MAX_FMUS];
-    int n_fmus = 0, runs = 1, reload = 0, quiet = 0, arg = 1;
+    int n_fmus = 0, runs = 1, reload = 0, quiet = 0, clock_steps = 0, arg = 1;
     memset(fmus, 0, sizeof fmus);
     for (; arg < argc && strncmp(argv[arg], "--", 2) == 0 && strcmp(argv[arg], "--fmu") != 0; arg++) {
         if (strcmp(argv[arg], "--runs") == 0 && arg + 1 < argc) runs = atoi(argv[++arg]);
         else if (strcmp(argv[arg], "--reload") == 0) reload = 1;
         else if (strcmp(argv[arg], "--quiet") == 0) quiet = 1;
+        else if (strcmp(argv[arg], "--clock-steps") == 0) clock_steps = 1;
         else return usage(argv[0], "unknown option");
     }
     if (argc - arg < 2 || runs < 1) return usage(argv[0], "missing STEP N_STEPS");
@@ -317,7 +322,7 @@ int main(int argc, char **argv) {
             for (int i = 0; i < n_fmus; i++)
                 if (!unload(&fmus[i]) || !load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
         }
-        status = run_once(fmus, n_fmus, run, step, n_steps, quiet);
+        status = run_once(fmus, n_fmus, run, step, n_steps, quiet, clock_steps);
     }
 unload:
     for (int i = 0; i < n_fmus; i++)

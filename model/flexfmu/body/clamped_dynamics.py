@@ -12,6 +12,7 @@ import scipy.linalg as sla
 
 from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
+from flexfmu.core.step_size import StepSizes
 from flexfmu.core.vec3 import cross
 
 #: step maps memoised per instance (key: step size, w, alpha); starts afresh when full (inputs varying every step)
@@ -37,6 +38,7 @@ class ClampedDynamics:
         self.mc = inv["first_moment"]
         self.J0 = inv["J0"]
         self._maps = BoundedCache(MAP_MEMO_SIZE)
+        self._steps = StepSizes()              # the step sizes of the maps' keys (flexfmu.core.step_size)
 
     # ---------------------------------------------------------------- (B2)
     def matrices(self, w, alpha):
@@ -67,7 +69,9 @@ class ClampedDynamics:
         return r
 
     def transition(self, h: float, w, alpha):
-        """(Ad, Bd): x(t + h) = Ad x(t) + Bd r for r held (exact), cached per (h, w, alpha)."""
+        """(Ad, Bd): x(t + h) = Ad x(t) + Bd r for r held (exact), cached per (h, w, alpha); a step within
+        STEP_RTOL of one already seen uses that step's maps (flexfmu.core.step_size, with the error bound)."""
+        h = self._steps.canonical(h)
         key = (h,) + tuple(w) + tuple(alpha)
         hit = self._maps.get(key)
         if hit is not None:

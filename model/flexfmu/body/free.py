@@ -29,6 +29,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from flexfmu.core.step_size import StepSizes
 from flexfmu.linalg.modal_basis import N_RIGID, ModalBasis
 from flexfmu.reframe.kernel_data import inertia_invariants, max_displacement_blocks
 from flexfmu.reframe.layout import output_layout, param_layout
@@ -105,6 +106,7 @@ class FreeDynamics:
         self.umax_skip = (np.zeros(0, dtype=np.int64),) + self.umax[1:]
         self.layout = output_layout(nf, self.n_if)
         self._ex = {}
+        self._ex_steps = StepSizes()          # the time steps of _ex's keys (flexfmu.core.step_size)
         self.omega_max = float(np.sqrt(kF.max())) if nf else 0.0
 
     def initial_state(self, v0, omega0) -> np.ndarray:
@@ -116,6 +118,7 @@ class FreeDynamics:
         return np.concatenate([self.com, np.eye(3).ravel(), eta])
 
     def _coefficients(self, dt: float):
+        dt = self._ex_steps.canonical(dt)     # a host's last-bit variants of dt share its coefficients
         EX = self._ex.get(dt)
         if EX is None:
             EX = np.ascontiguousarray(self._expo(self.kF, self.cF, dt).reshape(-1))

@@ -33,6 +33,7 @@ from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_S
                             finite, finite_input, is_int, require_str, round_down, shown)
 from flexfmu.errors import DivergenceError, FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
 from flexfmu.core.cache import BoundedCache
+from flexfmu.core.step_size import StepSizes
 from flexfmu.ffr.dynamics import MAP_MEMO_SIZE, RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.linalg.modal import solve_modes
 from flexfmu.sizing.beam import (ModelChoice, StaticCorrection, TruncationChoice, ffr_load_patterns,
@@ -264,6 +265,7 @@ class FFRBeamSimulator:
         self._u = np.zeros(len(INPUT_NAMES))          # the inputs as a vector, INPUT_NAMES order
         self._k = self.dynamics.stiffness
         self._map_cache = BoundedCache(MAP_MEMO_SIZE)
+        self._steps = StepSizes()                      # the step sizes of the map cache's keys
         self._x, self._x_state = None, None
         self._n_sub = None                             # RK4 sub-steps of the last step (logged when it changes)
         # With geometric stiffening K_eff depends on the base acceleration too: the maps are per a0 as well.
@@ -321,7 +323,10 @@ class FFRBeamSimulator:
 
     def _maps(self, h):
         """The _StepMaps of step h (None: outputs only) and the held base motion, cached: the step and the
-        outputs are then a few matrix-vector products."""
+        outputs are then a few matrix-vector products.  A host's last-bit variants of one step size share its
+        maps (flexfmu.core.step_size: the error bound)."""
+        if h is not None:
+            h = self._steps.canonical(h)
         key = (h, self._held_input()[0])
         hit = self._map_cache.get(key)
         if hit is None:
@@ -418,6 +423,7 @@ class FFRBeamSimulator:
         other.inputs = dict(self.inputs)
         other._u = self._u.copy()
         other._map_cache = BoundedCache(MAP_MEMO_SIZE)
+        other._steps = StepSizes()
         other._x, other._x_state = None, None
         other._held_input_cache = None
         return other

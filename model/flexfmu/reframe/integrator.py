@@ -78,6 +78,7 @@ from flexfmu.errors import FlexfmuError, ParameterError
 from flexfmu.linalg.modal_basis import N_RIGID
 from flexfmu.core.rotation import oblique_basis
 from flexfmu.core.structure import Structure
+from flexfmu.core.step_size import StepSizes
 # Loads, states / results, the model checks and the baseline live in their own modules; their public
 # names are re-exported here, where the rest of flexfmu and its users import them from.
 from flexfmu.reframe import schemes as _schemes
@@ -174,6 +175,7 @@ class ReframeIntegrator:
         self.stepper.setup()
         self._setup_max_displacement()
         self._ex_cache = {}
+        self._ex_steps = StepSizes()        # the time steps of _ex_cache's keys (flexfmu.core.step_size)
         self.state = self.initial_state()
 
     @property
@@ -206,7 +208,9 @@ class ReframeIntegrator:
         self._Gk = np.ascontiguousarray(Ga.reshape(-1))
 
     def _exponential(self, dt: float) -> np.ndarray:
-        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt)."""
+        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt; a dt within
+        STEP_RTOL of one already seen uses its coefficients, flexfmu.core.step_size states the error bound)."""
+        dt = self._ex_steps.canonical(dt)
         EX = self._ex_cache.get(dt)
         if EX is None:
             EX = np.ascontiguousarray(_schemes.exponential_coefficients(self._kF, self._cF, dt).reshape(-1))

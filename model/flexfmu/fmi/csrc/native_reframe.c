@@ -57,6 +57,7 @@
 
 #include "flexfmu_bridge.h"
 #include "native_kind.h"
+#include "lti_kernels.h" /* ffx_same_step: one step for a host's last-bit variants */
 #include "reframe_kernels.h"
 
 #define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
@@ -575,7 +576,9 @@ static int step_held(void *sim, double *x, const double *u_before, const double 
     long n = m->free_body ? free_split(s, x, u, t, h, r) : split(s, x, u_before, u, t, h, r);
     if (n == 0) return r->status >= BRIDGE_DISCARD ? r->status : NATIVE_NOT_FINITE;
     double dt = h / (double)n;
-    if (dt != s->ex_dt && !m->consistent) { /* the Python integrator's per-dt coefficients, by the same C function */
+    /* the Python integrator's per-dt coefficients, by the same C function; a host's last-bit variants of the
+       cached dt reuse them (FFX_STEP_RTOL in lti_kernels.h: the error bound) */
+    if (!(s->ex_dt > 0.0 && ffx_same_step(s->ex_dt, dt)) && !m->consistent) {
         int off[FFX_REFRAME_N_OFFSETS];
         ffx_reframe_offsets(nf, off);
         if (ffx_reframe_exponential_coefficients(nf, s->P + off[FFX_REFRAME_O_K], s->P + off[FFX_REFRAME_O_CF], dt,

@@ -31,6 +31,17 @@
 #define FFX_LTI_SINGULAR 2       /* the Pade denominator of the exponential is singular (a non-finite matrix) */
 #define FFX_LTI_BAD_ARGUMENT 3   /* inconsistent model, too little workspace, or h not finite or < 0 */
 
+/* Step sizes within FFX_STEP_RTOL (relative) of each other are one step: what was computed for the first (step
+ * maps, exponential coefficients) is reused for the other.  Hosts that compute each step as h = t(k+1) - t(k)
+ * pass steps that differ in their last bits (about eps |t| / h relative), and a matrix exponential per step would
+ * cost 10-20x the step.  The state then advances by the cached step hc: the exact solution at a time shifted by
+ * |h - hc| <= FFX_STEP_RTOL hc, i.e. at most FFX_STEP_RTOL hc max|x'| per step; for h = t(k+1) - t(k) the shifts
+ * sum to the rounding of the host's own clock.  The full bound is in flexfmu.core.step_size, whose STEP_RTOL
+ * equals this (checked by the tests through ffx_step_rtol). */
+#define FFX_STEP_RTOL 1e-6
+double ffx_step_rtol(void);
+int ffx_same_step(double cached, double h); /* 1 when step h may reuse what was computed for step cached */
+
 typedef struct {
     int nx, nu, ny, np, nmono;     /* nmono = FFX_LTI_N_MONOMIALS(np) */
     const double *A;               /* (nmono, nx, nx) */
