@@ -210,7 +210,8 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
-#: Progress lines (stderr, every ~10%) start once a run has taken this long (s of wall time).
+#: Progress (stderr: a bar on a terminal, else a line per 10 %) starts once a run has taken this long (s of wall
+#: time).
 PROGRESS_AFTER_S = 2.0
 
 
@@ -228,26 +229,24 @@ def _vector3(text: str, name: str):
 
 def _run_with_progress(integ, t_end, dt, load, points, every, stream=None):
     """``integ.run`` in ~10 chunks (each a multiple of ``every`` steps, so the records are the same as
-    one run), with a percentage line on ``stream`` after each chunk once the run takes long."""
+    one run), with the progress (flexfmu.core.progress) on ``stream`` after each chunk once the run
+    takes longer than PROGRESS_AFTER_S."""
     import numpy as np
 
+    from flexfmu.core.progress import progress_bar
     from flexfmu.reframe.integrator import ReframeResult
 
-    stream = sys.stderr if stream is None else stream
     n_steps = int(round(t_end / dt))
     if abs(n_steps * dt - t_end) > 1e-9 * max(1.0, t_end):
         n_steps = int(math.ceil(t_end / dt))
     chunk = max(every, int(math.ceil(n_steps / 10 / every)) * every)
-    start = time.perf_counter()
     parts = []
     done = 0
-    while done < n_steps:
-        done = min(done + chunk, n_steps)
-        parts.append(integ.run(t_end if done == n_steps else done * dt, dt, load, points, every=every))
-        elapsed = time.perf_counter() - start
-        if elapsed >= PROGRESS_AFTER_S:
-            print(f"flexfmu reframe: {100 * done // n_steps:3d}%  t = {integ.state.t:.6g} of {t_end:g} s, "
-                  f"{elapsed:.1f} s", file=stream, flush=True)
+    with progress_bar(n_steps, "flexfmu reframe", stream=stream, delay=PROGRESS_AFTER_S, t_end=t_end) as bar:
+        while done < n_steps:
+            done = min(done + chunk, n_steps)
+            parts.append(integ.run(t_end if done == n_steps else done * dt, dt, load, points, every=every))
+            bar.update_to(done, integ.state.t)
     if len(parts) == 1:
         return parts[0]
     fields = {}

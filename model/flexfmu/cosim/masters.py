@@ -29,7 +29,6 @@ import os
 import math
 import sys
 import tempfile
-import time as _time
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Callable
@@ -37,6 +36,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
+from flexfmu.core.progress import progress_bar
 from flexfmu.fmi.registry import FMUS
 from flexfmu.errors import CosimulationError, ParameterError, require
 
@@ -407,34 +407,6 @@ class CosimResult:
         return path
 
 
-class _Progress:
-    """A progress bar on a stream (stderr): redrawn at most every 0.2 s once a run takes > 1 s, and
-    always its final line."""
-
-    def __init__(self, total: int, label: str, stream=None, enabled: bool = True):
-        self.total, self.label = total, label
-        self.stream = sys.stderr if stream is None else stream
-        self.enabled = enabled
-        self.start = _time.perf_counter()
-        self.last = 0.0
-        self.shown = False
-
-    def update(self, done: int, t: float):
-        if not self.enabled:
-            return
-        now = _time.perf_counter()
-        if (now - self.start < 1.0 or now - self.last < 0.2) and done < self.total:
-            return
-        self.last, self.shown = now, True
-        frac = done / self.total
-        bar = "#" * int(30 * frac) + "-" * (30 - int(30 * frac))
-        elapsed = now - self.start
-        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
-        end = "\n" if done == self.total else ""
-        print(f"\r{self.label} [{bar}] {100 * frac:5.1f}%  t = {t:.4g} s  {elapsed:.1f} s elapsed, ~{eta:.0f} s left",
-              end=end, file=self.stream, flush=True)
-
-
 def _n_steps(t_end: float, start: float, h: float) -> int:
     require(np.isfinite(t_end) and t_end > start, "t-end", f"got {t_end!r}", f"> start time {start!r} s")
     require(np.isfinite(h) and h > 0, "step", f"got {h!r}", "> 0 s")
@@ -577,14 +549,14 @@ def run(system: System, t_end: float, step: float | None = None, scheme: str = "
         rows[0] = first
         if record is not None:
             extra.append(record(master.slaves))
-        bar = _Progress(n, label, enabled=progress)
-        for k in range(n):
-            t = t0 + k * h
-            master.step(t, h, scheme)
-            rows[k + 1] = master.outputs()
-            if record is not None:
-                extra.append(record(master.slaves))
-            bar.update(k + 1, t + h)
+        with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
+            for k in range(n):
+                t = t0 + k * h
+                master.step(t, h, scheme)
+                rows[k + 1] = master.outputs()
+                if record is not None:
+                    extra.append(record(master.slaves))
+                bar.update_to(k + 1, t + h)
     finally:
         master.free()
     columns = dict(zip(master.column_names(), rows.T))
@@ -706,18 +678,17 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
         rows.append(np.concatenate([observer.last_real_values(index[nm], [vr for _, vr in outputs[nm]])
                                     for nm in order]))
 
-    bar = _Progress(n, label, enabled=progress)
-    ok = execution.step(1)        # libcosim initialises on the first step
-    require(ok, "libcosim", "the first step failed", "see the FMUs' log")
-    sample()                      # libcosim's observer has no values before the first step: t0 is not recorded
-    for k in range(1, n):
-        ok = execution.step(1)
-        require(ok, "libcosim", f"step {k + 1} (t = {system.start_time + k * h:.9g} s) failed",
-                "a step inside the coupling-stability limit")
-        sample()
-        bar.update(k + 1, system.start_time + (k + 1) * h)
-    if n == 1:
-        bar.update(1, t_end)
+    with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
+        ok = execution.step(1)        # libcosim initialises on the first step
+        require(ok, "libcosim", "the first step failed", "see the FMUs' log")
+        sample()                      # libcosim's observer has no values before the first step: t0 is not recorded
+        bar.update_to(1, system.start_time + h)
+        for k in range(1, n):
+            ok = execution.step(1)
+            require(ok, "libcosim", f"step {k + 1} (t = {system.start_time + k * h:.9g} s) failed",
+                    "a step inside the coupling-stability limit")
+            sample()
+            bar.update_to(k + 1, system.start_time + (k + 1) * h)
     del execution
     data = np.array(rows)
     columns = {}
@@ -768,11 +739,11 @@ def run_ecos(system: System, t_end: float, step: float | None = None, progress: 
             sim.init(parameter_set=PARAMETER_SET)
             get = sim.get_real
             rows[0] = [get(i) for i in ids]
-            bar = _Progress(n, label, enabled=progress)
-            for k in range(n):
-                sim.step()
-                rows[k + 1] = [get(i) for i in ids]
-                bar.update(k + 1, system.start_time + (k + 1) * h)
+            with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
+                for k in range(n):
+                    sim.step()
+                    rows[k + 1] = [get(i) for i in ids]
+                    bar.update_to(k + 1, system.start_time + (k + 1) * h)
             sim.terminate()
         finally:
             sim.free()

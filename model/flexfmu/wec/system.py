@@ -10,7 +10,6 @@ point) and PTO stator -> Platform.  Instances are found by their FMU model name,
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from flexfmu.cosim.masters import CosimResult, LibrarySlave, System, load_system, run
+from flexfmu.core.progress import progress_bar
 from flexfmu.errors import ParameterError, require
 
 #: arc length (m) of the harvester point (PTO and sensor) per boundary: the free tip, except for XFX,
@@ -350,22 +350,6 @@ def run_case_or_error(system_file: str, case: Case, *args) -> dict:
                 "wave_period": case.wave_period, "seed": case.seed, "mean_power_W": math.nan, "error": str(exc)}
 
 
-class _SweepBar:
-    """A one-line progress bar of finished co-simulations on stderr."""
-
-    def __init__(self, total: int, enabled: bool):
-        self.total, self.enabled, self.start = total, enabled, _time.perf_counter()
-
-    def update(self, done: int):
-        if not self.enabled:
-            return
-        elapsed = _time.perf_counter() - self.start
-        left = f"~{elapsed * (self.total - done) / done:.0f} s left" if done else ""
-        bar = "#" * (30 * done // self.total) + "-" * (30 - 30 * done // self.total)
-        print(f"\rsweep [{bar}] {done}/{self.total} co-simulations, {elapsed:.0f} s elapsed, {left}   ",
-              end="\n" if done == self.total else "", file=sys.stderr, flush=True)
-
-
 def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: str = "gauss-seidel",
           backend: str = "library", fmu_dir=None, scheduler: str | None = None, n_workers: int = 2,
           progress: bool = False, average_from: float | None = None, keep_going: bool = False) -> list[dict]:
@@ -378,12 +362,12 @@ def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: s
     fmu_dir = None if fmu_dir is None else str(Path(fmu_dir).resolve())
     args = (t_end, step, scheme, backend, fmu_dir, average_from)
     task = run_case_or_error if keep_going else run_case
-    bar = _SweepBar(len(cases), progress)
     if scheduler is None:
         rows = []
-        for i, case in enumerate(cases):
-            rows.append(task(system_file, case, *args))
-            bar.update(i + 1)
+        with progress_bar(len(cases), "sweep", enabled=progress, unit="co-simulation") as bar:
+            for i, case in enumerate(cases):
+                rows.append(task(system_file, case, *args))
+                bar.update_to(i + 1)
         return rows
     try:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -399,8 +383,9 @@ def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: s
     try:
         futures = [client.submit(task, system_file, case, *args, pure=False) for case in cases]
         if progress:
-            for i, _ in enumerate(as_completed(futures)):
-                bar.update(i + 1)
+            with progress_bar(len(cases), "sweep", unit="co-simulation") as bar:
+                for i, _ in enumerate(as_completed(futures)):
+                    bar.update_to(i + 1)
         return client.gather(futures)
     finally:
         client.close()
