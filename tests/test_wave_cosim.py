@@ -13,6 +13,7 @@ import pytest
 from fmu_helpers import ROOT, Instance
 
 from flexfmu import cli
+from flexfmu.core import progress
 from flexfmu.cosim.masters import (STABILITY_TOLERANCE, Master, load_system, run, run_libcosim, spectral_radius,
                            write_osp)
 from flexfmu.errors import FlexfmuError, ParameterError
@@ -140,14 +141,17 @@ def test_coupling_stability_limit_linear_analysis_and_direct_runs():
         run(sudden, 4.2e-3 * 700, 4.2e-3, scheme="gauss-seidel", backend="library")
 
 
-def test_cli_cosim_writes_csv_prints_energy_and_progress(fmu_dir, tmp_path, capsys):
+def test_cli_cosim_writes_csv_prints_energy_and_progress(fmu_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(progress, "DEFAULT_DELAY_S", 0.0)      # a short run shows its progress too
     out = tmp_path / "results.csv"
     status = cli.main(["cosim", str(SYSTEM), "--t-end", "0.3", "--out", str(out), "--fmu-dir", str(fmu_dir),
                        "--every", "10"])
     captured = capsys.readouterr()
     assert status == 0, captured.err
     assert "energy balance" in captured.out and "mean harvested power" in captured.out
-    assert "100.0%" in captured.err and "warning" not in captured.err
+    assert "flexfmu cosim: 100 % (t = 0.3 s of 0.3 s" in captured.err and "warning" not in captured.err
+    progress_lines = [line for line in captured.err.splitlines() if " % (t = " in line]
+    assert "\r" not in captured.err and 1 <= len(progress_lines) <= 11      # a log, not a redrawn bar
     with out.open() as f:
         rows = list(csv.reader(f))
     assert rows[0][0] == "time" and "platform.pos_z" in rows[0] and "pto.power" in rows[0]
