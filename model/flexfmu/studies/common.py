@@ -29,6 +29,31 @@ def source_checkout() -> Path | None:
     return None
 
 
+def provenance() -> str:
+    """Which code and day a generated report comes from: "commit 1a2b3c4 (dirty), 2026-11-27" in a source
+    checkout (dirty: uncommitted changes to tracked files), else the installed flexfmu version and the day, so a
+    reader can tell a stale report from a fresh one."""
+    import datetime
+    import subprocess
+    today = datetime.date.today().isoformat()
+    root = source_checkout()
+    if root is not None:
+        try:
+            commit = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True,
+                                    text=True, timeout=30).stdout.strip()
+            dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                                   capture_output=True, text=True, timeout=30).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            commit, dirty = "", ""
+        if commit:
+            return f"commit {commit}{' (with uncommitted changes)' if dirty else ''}, {today}"
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return f"flexfmu {version('flexfmu')}, {today}"
+    except PackageNotFoundError:
+        return f"flexfmu (unknown version), {today}"
+
+
 def default_report_dir() -> Path:
     """docs/ of the source checkout, else the current directory."""
     root = source_checkout()
@@ -96,7 +121,7 @@ def write_text_report(path: str | Path, title: str, intro: str, printed: str, ch
     (paths of the chart files, linked relative to the report; None for a chart that was skipped)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    lines = [f"# {title}", "", intro, "", "```text", printed.strip("\n"), "```", ""]
+    lines = [f"# {title}", "", f"Made from {provenance()}.", "", intro, "", "```text", printed.strip("\n"), "```", ""]
     lines += [f"![{Path(p).stem}]({Path(os.path.relpath(Path(p).resolve(), path.parent.resolve())).as_posix()})\n"
               for p in charts if p is not None]
     path.write_text("\n".join(lines))

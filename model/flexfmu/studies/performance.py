@@ -652,6 +652,8 @@ def write_report(path: Path, rows, extra, mach, quick, elapsed):
     lines = [
         "# Performance",
         "",
+        f"Made from {common.provenance()}.",
+        "",
         "Written by `flexfmu bench` (flexfmu.studies.performance; also `benchmarks/performance.py`); the last run"
         + (" (--quick)" if quick else "") + f", {elapsed:.0f} s wall. Per-step and record figures are CPU time of"
         " the benchmark process (best of several; the machine's two cores are shared with other jobs, which"

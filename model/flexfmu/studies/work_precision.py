@@ -811,6 +811,8 @@ def write_report(path: Path, cases, figures, mach, quick, elapsed, extra_notes, 
     lines = [
         "# Work-precision study",
         "",
+        f"Made from {common.provenance()}.",
+        "",
         "Written by `flexfmu bench work-precision` (flexfmu.studies.work_precision; also "
         "`benchmarks/work_precision.py`); the run: "
         + ("**--quick**" if quick else "**full**") + f", {today}, {elapsed:.0f} s; machine: {mach}."
