@@ -6,6 +6,8 @@
                              # the example bracket mesh as an FMU and run it in the wave converter,
                              # and the wave converter on a flexible barge (dist/barge_vs_rigid.png)
     python3 tasks.py test    # set up .venv, then run the whole test suite
+    python3 tasks.py verify  # the suite under each OpenBLAS kernel type this CPU can run, in random order
+                             # (3 seeds), and from a wheel installed outside the checkout (slow: ~1 h)
 
 Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
 It is skipped when ``pyproject.toml`` has not changed since the last install, so
@@ -60,6 +62,71 @@ def run(argv: list[str]) -> int:
     return subprocess.call([str(python), *argv], cwd=ROOT)
 
 
+# OpenBLAS kernel types from the oldest x86-64 to the newest; the CPU must support a type's instructions
+CORETYPES = ("Prescott", "Nehalem", "Sandybridge", "Haswell", "SkylakeX", "Zen")
+CORETYPE_FLAGS = {"Sandybridge": "avx", "Haswell": "avx2", "SkylakeX": "avx512f"}
+
+
+def _cpu_flags() -> set[str]:
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return set()
+    return set(next((line.split(":", 1)[1].split() for line in text.splitlines() if line.startswith("flags")), []))
+
+
+def verify(extra: list[str]) -> int:
+    """The whole suite in the conditions of a machine unlike this one: each OpenBLAS kernel type the CPU can run
+    (OPENBLAS_CORETYPE; threadpoolctl reports the one in use), random test order with pytest-randomly (3 seeds),
+    and a wheel installed into a fresh venv outside the checkout.  Prints one line per run; exit 1 if any failed."""
+    import tempfile
+
+    python = ensure_venv()
+    # the verify extra's pytest-randomly, into .venv alone: installed, it would shuffle every plain run too,
+    # so each run below says whether it wants it
+    subprocess.check_call([str(python), "-m", "pip", "install", "--quiet", "pytest-randomly>=3.15,<6"])
+    flags, amd = _cpu_flags(), "AuthenticAMD" in Path("/proc/cpuinfo").read_text(errors="ignore")
+    runs = []
+    for core in CORETYPES:
+        if core == "Zen" and not amd or core in CORETYPE_FLAGS and CORETYPE_FLAGS[core] not in flags:
+            continue
+        runs.append((f"OPENBLAS_CORETYPE={core}", {"OPENBLAS_CORETYPE": core}, ["-p", "no:randomly"]))
+    for seed in (1, 2, 3):
+        runs.append((f"random order, seed {seed}", {}, [f"-p", "randomly", f"--randomly-seed={seed}"]))
+    results = []
+    try:
+        for label, env_extra, options in runs:
+            env = {**os.environ, **env_extra}
+            print(f"[verify] {label}", flush=True)
+            status = subprocess.call([str(python), "-m", "pytest", "-q", "-p", "no:cacheprovider", *options, *extra],
+                                     cwd=ROOT, env=env)
+            results.append((label, status))
+        with tempfile.TemporaryDirectory() as tmp:
+            # a wheel in a venv of its own: the suite imports flexfmu from that venv's site-packages, not model/
+            wheel_dir, env_dir = Path(tmp) / "wheel", Path(tmp) / "venv"
+            subprocess.check_call([str(python), "-m", "pip", "wheel", "--quiet", "--no-deps", "-w", str(wheel_dir),
+                                   str(ROOT)])
+            venv.EnvBuilder(with_pip=True).create(env_dir)
+            wheel_python = env_dir / "bin" / "python"
+            wheel = next(wheel_dir.glob("flexfmu-*.whl"))
+            subprocess.check_call([str(wheel_python), "-m", "pip", "install", "--quiet", f"{wheel}[dev]"])
+            subprocess.check_call([str(wheel_python), "-m", "pip", "install", "--quiet", "--no-deps",
+                                   "pyNastran==1.4.1", "cpylog>=1.4", "docopt-ng>=0.9", "colorama"])
+            print("[verify] from a wheel installed outside the checkout", flush=True)
+            status = subprocess.call([str(wheel_python), "-c", "import flexfmu, sys; "
+                                      "sys.exit(0 if 'site-packages' in flexfmu.__file__ else 1)"])
+            if status == 0:
+                status = subprocess.call([str(wheel_python), "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                                          *extra], cwd=ROOT)
+            else:
+                print("[verify] the wheel's venv does not import flexfmu from its site-packages", flush=True)
+            results.append(("wheel outside the checkout", status))
+    finally:
+        for label, status in results:
+            print(f"[verify] {label}: {'passed' if status == 0 else f'FAILED (exit {status})'}", flush=True)
+    return 0 if results and all(status == 0 for _, status in results) else 1
+
+
 def main() -> int:
     task = sys.argv[1] if len(sys.argv) > 1 else "help"
     extra = sys.argv[2:]
@@ -87,6 +154,8 @@ def main() -> int:
         return 0
     if task == "test":
         return run(["-m", "pytest", *extra])
+    if task == "verify":
+        return verify(extra)
     if task == "setup":
         ensure_venv()
         return 0
