@@ -124,7 +124,8 @@ def main(argv=None) -> int:
     header = (f"Made by `benchmarks/host_steps.py` from {provenance()} ({platform.machine()}, "
               f"{platform.platform()}, Python {platform.python_version()}).")
     if args.out:
-        args.out.write_text("\n".join([header, "", *lines, ""]), encoding="utf-8")
+        args.out.write_text("\n".join(["# Step sizes a host passes", "", header, "", __doc__.split("\n\n", 2)[2].strip(),
+                                       "", *lines, ""]), encoding="utf-8")
     print(header)
     return 0
 

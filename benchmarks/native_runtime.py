@@ -159,7 +159,20 @@ def main(argv=None) -> int:
     parser.add_argument("--wec-seconds", type=float, default=10.0)
     parser.add_argument("--reframe-cycles", type=int, default=5000, help="cycles per ReframeBody measurement")
     parser.add_argument("--reframe-only", action="store_true", help="only 5. (ReframeBody in the C host)")
+    parser.add_argument("--out", type=Path, help="also write what is printed as a report (docs/performance_native.md)")
     args = parser.parse_args(argv)
+    from flexfmu.studies import common
+    with common.recording() as printed:
+        status = run(args)
+    if args.out:
+        common.write_text_report(args.out, "Native runtime: FMUs with no Python",
+                                 "Printed by `benchmarks/native_runtime.py` (one run on a shared 2-core machine: "
+                                 "figures from this run, ratios within it). " + __doc__.split("\n\n", 1)[1].strip(),
+                                 printed.getvalue(), [])
+    return status
+
+
+def run(args) -> int:
 
     from host_tools import compile_c_host
 
