@@ -45,6 +45,7 @@ from importlib import import_module
 from flexfmu.errors import (ConvergenceError, CosimulationError, DivergenceError, FlexfmuError,
                             ModalConvergenceError, ModelFileError, NonFiniteError, ParameterError, StepRejected)
 
+#: The package version (PEP 440); the FMUs built by it record it.
 __version__ = "0.1.0"
 
 #: public name -> the module that defines it

@@ -59,6 +59,8 @@ class FmuSpec:
 
 _WEC = {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}
 
+#: Every FMU flexfmu builds (one FmuSpec each: model name, simulator, description, default experiment), in
+#: build order; ``flexfmu build`` and build_scripts/build_fmus.py make one FMU per entry.
 FMUS: tuple[FmuSpec, ...] = (
     FmuSpec("FFRBeam", "flexfmu.ffr.simulator", "FFRBeamConfig", "FFRBeamSimulator",
             "FFR discontinuous-beam model (Koda et al. 2025) of a clamped bent rod on a moving base",
