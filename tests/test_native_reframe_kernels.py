@@ -516,11 +516,65 @@ def test_a_c_program_calls_the_header_as_documented(C, tmp_path):
 
 
 # ------------------------------------------------------------------------- exponential-scheme coefficients
+#: the six 2x2 matrices of schemes.exponential_coefficients as combinations of the blocks e^Z, phi_1, phi_2, phi_3
+#: of one augmented exponential: (fraction of dt in Z, factor in units of dt, [(block, coefficient)])
+_EX_MATS = [(1.0, 0.0, [(0, 1.0)]), (0.5, 0.0, [(0, 1.0)]), (0.5, 0.5, [(1, 1.0)]),
+            (1.0, 1.0, [(1, 1.0), (2, -3.0), (3, 4.0)]), (1.0, 1.0, [(2, 2.0), (3, -4.0)]),
+            (1.0, 1.0, [(3, 4.0), (2, -1.0)])]
+
+
+def _exponential_coefficients_mp(k, c, dt):
+    """The exponential-scheme coefficients of the C port with every exponential in mpmath (40 digits), from the
+    same double 8x8 matrices W the C code forms (the same IEEE operations, so the same bits), in the balanced
+    coordinates (omega q, p) the port computes them in, and each balanced entry's error bound for a double
+    port (error_bounds.expm_error_bound eps_W of the two exponentials, then the combinations):
+
+    * the combination h sum_b c_b X_b of the blocks X_b = X[0:2, 2b:2b+2] of one exponential: its error is
+      h X_err[0:2, :] (c kron I_2), of 2-norm <= h ||c||_2 eps_W (bounding every entry); t terms add t + 1
+      roundings: + gamma_{t+1} h sum |c_b| |X_b|_ij;
+    * the port's scaling back to (q, p) and the test's scaling forward again (by s = sqrt(k), exactly as the
+      port forms it): two roundings, 2u |entry|; the reference rounded to double: u |entry|.
+
+    Returns (s (nf,), balanced reference (nf, 6, 2, 2) as doubles, bound (nf, 6, 2, 2))."""
+    import mpmath
+    from error_bounds import U, expm_error_bound, gamma, mp_expm
+    k = np.asarray(k, float)
+    c = np.asarray(c, float)
+    ref = np.zeros((k.size, 6, 2, 2))
+    bound = np.zeros_like(ref)
+    scales = np.zeros(k.size)
+    with mpmath.workdps(40):
+        for j in range(k.size):
+            w = math.sqrt(k[j]) if k[j] > 0.0 else 0.0
+            s = scales[j] = w if w > 0.0 else 1.0
+            L = np.array([[0.0, s], [-k[j] / s, -c[j]]])
+            blocks, eps_w = {}, {}
+            for frac in (1.0, 0.5):
+                W = np.zeros((8, 8))
+                W[0:2, 0:2] = (frac * dt) * L
+                for b in range(3):
+                    W[2 * b:2 * b + 2, 2 * b + 2:2 * b + 4] = np.eye(2)
+                X = mp_expm(W)
+                blocks[frac] = [X[0:2, 2 * b:2 * b + 2] for b in range(4)]
+                eps_w[frac] = expm_error_bound(W)
+            for m, (frac, hf, terms) in enumerate(_EX_MATS):
+                h = hf * dt if hf else 1.0
+                M = sum((coef * blocks[frac][b] for b, coef in terms), mpmath.zeros(2, 2)) * h
+                ref[j, m] = np.array(M.tolist(), float)
+                absum = sum(abs(coef) * np.abs(np.array(blocks[frac][b].tolist(), float)) for b, coef in terms)
+                norm_c = math.sqrt(sum(coef ** 2 for _, coef in terms))
+                bound[j, m] = h * norm_c * eps_w[frac] + gamma(len(terms) + 1) * h * absum + 3 * U * np.abs(ref[j, m])
+    return scales, ref, bound
+
+
 @pytest.mark.parametrize("dt", [1e-5, 1e-4, 1e-3, 2.5e-3])
-def test_exponential_coefficients_equal_the_scipy_reference(C, dt):
-    """ffx_reframe_exponential_coefficients (ffx_lti_expm of the 8x8 augmented blocks) against
-    schemes.exponential_coefficients_scipy (scipy.linalg.expm), per mode and matrix relative to its largest
-    entry: the paper plate's 10 modes (25 .. 577 Hz, 5 % damping) and modes from zero stiffness to 1e9 rad^2/s^2."""
+def test_exponential_coefficients_equal_the_extended_precision_reference(C, dt):
+    """ffx_reframe_exponential_coefficients (ffx_lti_expm of the 8x8 augmented blocks) against the same
+    coefficients with the exponentials in mpmath at 40 digits, entry by entry in the balanced coordinates
+    (omega q, p) within the a-priori bound of a double-precision Pade-13 scaling and squaring
+    (error_bounds.expm_error_bound, _exponential_coefficients_mp): the paper plate's 10 modes (25 .. 577 Hz,
+    5 % damping) and modes from zero stiffness to 1e7 rad^2/s^2.  (Formerly against scipy.linalg.expm with 5e-13
+    read off one machine: scipy is itself a double expm with errors of that order, and they depend on the BLAS.)"""
     from flexfmu.native import reframe as native
     from flexfmu.reframe import schemes
     from flexfmu.reframe.simulator import ReframeBodySimulator
@@ -529,10 +583,15 @@ def test_exponential_coefficients_equal_the_scipy_reference(C, dt):
     cases = [(integ._kF, integ._cF),
              (np.array([0.0, 1.0, 4e2, 3.7e5, 1e7]), np.array([0.0, 0.1, 2.0, 60.0, 3e2]))]
     for k, c in cases:
+        s, ref, bound = _exponential_coefficients_mp(k, c, dt)
         a = native.exponential_coefficients(k, c, dt)
-        b = schemes.exponential_coefficients_scipy(k, c, dt)
-        err = np.abs(a - b).max(axis=(2, 3)) / np.abs(b).max(axis=(2, 3))
-        assert err.max() <= 5e-13, (dt, err.max())
+        a[:, :, 0, 1] *= s[:, None]                       # to the balanced coordinates (omega q, p)
+        a[:, :, 1, 0] /= s[:, None]
+        err = np.abs(a - ref)
+        size = np.abs(ref).max(axis=(2, 3))
+        print(f"\ndt {dt}: max |C - mp| / bound {np.max(err / bound):.3g}; relative to each matrix: "
+              f"max |C - mp| {np.max(err.max(axis=(2, 3)) / size):.3g}, bound <= {np.max(bound.max(axis=(2, 3)) / size):.3g}")
+        assert np.all(err <= bound), (dt, np.max(err / bound))
     # the library's entry point takes the C port when the C kernels are in use
     assert np.array_equal(schemes.exponential_coefficients(integ._kF, integ._cF, dt),
                           native.exponential_coefficients(integ._kF, integ._cF, dt)) or not K.NATIVE
