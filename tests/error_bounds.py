@@ -137,3 +137,21 @@ def mp_expm(W: np.ndarray, dps: int = 40):
     import mpmath
     with mpmath.workdps(dps):
         return mpmath.expm(mpmath.matrix([[mpmath.mpf(float(x)) for x in row] for row in np.asarray(W, float)]))
+
+
+# ------------------------------------------------------------------------------------- general bounds
+def implementations_bound(scale: float, ops: int, growth: float = 1.0, n_steps: int = 1) -> float:
+    """Bound on |a - b| for two double-precision evaluations a, b of the same exact quantity by different
+    operation orders (C vs numpy, native vs Python FMU, any BLAS kernel): each is within gamma_ops * scale of the
+    exact value per step (``ops`` the longest chain of roundings feeding one result, e.g. an inner-product length
+    plus the terms added to it; ``scale`` the size of the terms, sum |x_i| or ||A|| ||x||), and a step's error is
+    carried into later steps amplified by at most ``growth`` (a bound on ||Ad||, or 1 for a contraction) over
+    ``n_steps`` steps: 2 gamma_ops scale * sum_k growth^k [ASNA 3.1, 3.5]."""
+    carried = float(n_steps) if growth == 1.0 else (growth ** n_steps - 1.0) / (growth - 1.0)
+    return 2.0 * gamma(ops) * scale * carried
+
+
+def matvec_bound(A, x) -> np.ndarray:
+    """Componentwise bound on |fl(A x) - A x| for any summation order: gamma_n |A| |x| [ASNA 3.5]."""
+    A, x = np.asarray(A, float), np.asarray(x, float)
+    return gamma(A.shape[-1]) * (np.abs(A) @ np.abs(x))
