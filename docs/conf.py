@@ -32,8 +32,7 @@ extensions = [
 
 root_doc = "index"
 source_suffix = {".md": "markdown"}
-# performance_notes.md is not a page: flexfmu.studies.performance appends it to performance.md.
-exclude_patterns = ["_build", "performance_notes.md"]
+exclude_patterns = ["_build"]
 html_theme = "alabaster"
 
 # Quotes and ellipses only: "--option" in prose stays two hyphens, not an en dash.

@@ -54,7 +54,7 @@ def test_round_trip(which, plate, tmp_path):
         assert abs(B - B.T).max() == 0.0
 
 
-def test_file_has_exactly_the_issue_keys(plate, tmp_path):
+def test_file_has_exactly_the_required_keys(plate, tmp_path):
     path = save_structure(tmp_path / "plate", plate)           # suffix added
     assert path.name == "plate.npz"
     with np.load(path) as npz:

@@ -44,7 +44,7 @@ def vector(outputs: dict, name: str) -> np.ndarray:
     return np.array([outputs[f"{name}_{a}"] for a in "xyz"])
 
 
-# ------------------------------------------------------------------------------------------- the Must-show case
+# ------------------------------------------------------------------------------------------- the reference case
 def test_double_l_choice_frequencies_and_static_deflection():
     """The reference case: spatial double-L (XFF), f_max = 300 Hz, tolerance 1e-3.  The chosen model's
     frequencies below 300 Hz are within 1e-3 of the converged ones and its static tip deflection equals

@@ -6,7 +6,9 @@ part cannot drift from the code:
 
 - ``cli-reference``: every command, sub-command and option of ``flexfmu.cli.build_parser()`` (cli.py);
 - ``api-reference``: autodoc entries for every name of ``flexfmu.__all__`` (api.py);
-- ``examples-gallery``: every example of examples/ with its summary, commands and figures (gallery.py).
+- ``examples-gallery``: every example of examples/ with its summary, commands and figures (gallery.py);
+- ``unlisted-pages``: inside a toctree, the pages of docs/ that the page's toctrees do not name yet (a newly
+  generated report gets into the site without an edit of index.md).
 
 Docstrings are preprocessed for autodoc (docstrings.py: the aligned parameter lists, ``|x|`` norms).  It also
 checks that docs/fmu.md's variable tables match the FMU registry (flexfmu.fmi.variable_tables), a
@@ -21,7 +23,15 @@ from sphinx.util import logging
 
 from . import api, cli, docstrings, gallery
 
-GENERATORS = {"cli-reference": cli.render, "api-reference": api.render, "examples-gallery": gallery.render}
+def _unlisted_pages(app, docname: str, text: str) -> str:
+    """The pages of docs/ that no toctree of this page names, one per line (for a toctree)."""
+    listed = set(re.findall(r"^([\w/-]+)$", text, re.MULTILINE))
+    pages = sorted(p.stem for p in Path(app.srcdir).glob("*.md") if p.stem != docname)
+    return "\n".join(page for page in pages if page not in listed)
+
+
+GENERATORS = {"cli-reference": cli.render, "api-reference": api.render, "examples-gallery": gallery.render,
+              "unlisted-pages": _unlisted_pages}
 MARKER = re.compile(r"^<!-- generated: ([a-z-]+) -->$", re.MULTILINE)
 logger = logging.getLogger(__name__)
 
@@ -33,7 +43,8 @@ def _replace_markers(app, docname: str, source: list) -> None:
             logger.warning("unknown generated section %r (known: %s)", name, ", ".join(GENERATORS),
                            location=docname)
             return match.group(0)
-        return GENERATORS[name]()
+        generator = GENERATORS[name]
+        return generator(app, docname, source[0]) if generator is _unlisted_pages else generator()
 
     source[0] = MARKER.sub(generate, source[0])
 

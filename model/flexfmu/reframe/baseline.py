@@ -30,7 +30,7 @@ class BaselineResult:
 
 
 class FixedFrameBaseline:
-    """The same model integrated conventionally in the fixed global frame (item 9): Eq. (35) with RK4,
+    """The same model integrated conventionally in the fixed global frame (the comparison baseline): Eq. (35) with RK4,
     x = Psi q the displacement from the initial (mesh) configuration, loads with undeformed arms and
     global components (follower loads use the initial orientation).  Valid only for small rotations:
     the comparison shows what the reframing buys."""

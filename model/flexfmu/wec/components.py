@@ -1,5 +1,6 @@
-"""Small helpers shared by the wave-energy-converter component façades (wave_excitation_sim,
-hydrostatics_sim, platform_sim, pto_sim): input checks, plain-data state, variable descriptions."""
+"""Small helpers shared by the wave-energy-converter component façades (flexfmu.wec.wave_excitation,
+flexfmu.wec.hydrostatics, flexfmu.wec.platform, flexfmu.wec.pto): input checks, plain-data state, variable
+descriptions."""
 from __future__ import annotations
 
 import math
