@@ -3,9 +3,13 @@ from the reduced model alone (flexfmu.body.model.FlexBody).
 
 With the base motion (a0, w, alpha) and the interface loads held over a step, (B2) is a linear system with
 constant matrices, x' = A x + [0; r], x = [eta; eta_d]: advanced exactly by the augmented matrix exponential
-(zero-order hold, as flexfmu.ffr.dynamics), cached per step size and held base rotation.
+(zero-order hold, as flexfmu.ffr.dynamics), cached per step size and held base rotation.  For a held base rotation
+the modal force and the outputs are affine in the state and the loads too (bar two bilinear moment terms):
+:meth:`ClampedDynamics.held_maps` multiplies them out once per rotation, for the per-step path.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg as sla
@@ -13,7 +17,7 @@ import scipy.linalg as sla
 from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.step_size import StepSizes
-from flexfmu.core.vec3 import cross
+from flexfmu.core.vec3 import cross, skew
 
 #: step maps memoised per instance (key: step size, w, alpha); starts afresh when full (inputs varying every step)
 MAP_MEMO_SIZE = 65
@@ -141,3 +145,112 @@ class ClampedDynamics:
             if self.moments[i]:
                 M_ext += ld[3:]
         return F_ext - F_in, M_ext - M_in
+
+    # ---------------------------------------------------------------- affine maps of a held base rotation
+    def n_loads(self) -> int:
+        """Length of the load vector ul = [F_1, M_1, F_2, M_2, ..., a0]: each interface's force (N) and, where it
+        carries one, its moment (N.m), then the base acceleration a0 (m/s^2), body frame."""
+        return sum(6 if mom else 3 for mom in self.moments) + 3
+
+    def held_maps(self, w, alpha) -> "HeldMaps":
+        """(B2) and the outputs of :meth:`interface_motion` and :meth:`reactions` as maps of the state
+        x = [eta; eta_d] and the load vector ul (:meth:`n_loads`) for the held base rotation w (rad/s), alpha
+        (rad/s^2), body frame: what depends on the model and the rotation alone is multiplied out here once, so
+        that a step and its outputs are a few matrix-vector products.  The same formulas as those methods,
+        regrouped: the results differ from theirs in rounding only."""
+        w = np.asarray(w, dtype=float)
+        alpha = np.asarray(alpha, dtype=float)
+        inv, m, n_if = self.inv, self.m, len(self.rows)
+        nl = self.n_loads()
+        a0_cols = slice(nl - 3, nl)
+        eye3 = np.eye(3)
+        K, C = self.matrices(w, alpha)
+
+        # right side of (B2): r = force ul + force0 (modal_force)
+        force = np.zeros((self.m, nl))
+        force_cols, moment_cols, k = [], [], 0
+        for D, mom in zip(self.rows, self.moments):
+            force[:, k:k + 3] = D[:3].T
+            force_cols.append(slice(k, k + 3))
+            k += 3
+            moment_cols.append(slice(k, k + 3) if mom else None)
+            if mom:
+                force[:, k:k + 3] = D[3:].T
+                k += 3
+        force[:, a0_cols] = -inv["Sa"]
+        force0 = -inv["Sw"] @ alpha + np.einsum("k,l,klj->j", w, w, inv["R"])
+        # eta_dd = acc_x x + force ul + force0 (acceleration)
+        acc_x = np.hstack([-K, -C])
+
+        ny = 9 * n_if + 6
+        Cx, Cu, y0 = np.zeros((ny, 2 * m)), np.zeros((ny, nl)), np.zeros(ny)
+        W = skew(w)
+        rotation = skew(alpha) + W @ W                # y -> alpha x y + w x (w x y)
+        for i, D in enumerate(self.rows):             # interface_motion: position, velocity, acceleration
+            T, point, row = D[:3], self.points[i], 9 * i
+            Cx[row:row + 3, :m] = T
+            y0[row:row + 3] = point
+            Cx[row + 3:row + 6, m:] = T
+            acc = slice(row + 6, row + 9)
+            Cx[acc] = T @ acc_x
+            Cx[acc, :m] += rotation @ T
+            Cx[acc, m:] += 2.0 * W @ T
+            Cu[acc] = T @ force
+            Cu[acc, a0_cols] += eye3
+            y0[acc] = rotation @ point + T @ force0
+
+        # reactions: F = F_ext - F_in, M = M_ext - M_in, each V^T f1 field (_field) affine in x through eta_dd
+        fields = []
+        for f in (0, 1):
+            Va, Vq, Vr, Vp = inv["Va"][f], inv["Vq"][f], inv["Vr"][f], inv["Vp"][f]
+            direct = np.hstack([np.einsum("k,kcj->cj", alpha, Va) - np.einsum("k,l,klcj->cj", w, w, Vq),
+                                np.einsum("k,kcj->cj", w, Va) - np.einsum("k,kcj->cj", w, Vr)])
+            fields.append((direct + Vp @ acc_x, Vp @ force, Vp @ force0))
+        mc, J0 = self.mc, self.J0
+        F, M = slice(9 * n_if, 9 * n_if + 3), slice(9 * n_if + 3, 9 * n_if + 6)
+        field_x, field_u, field_0 = fields[0]
+        Cx[F] = -field_x
+        Cu[F] = -field_u
+        Cu[F, a0_cols] -= self.mass * eye3
+        y0[F] = -(cross(alpha, mc) + cross(w, cross(w, mc))) - field_0
+        field_x, field_u, field_0 = fields[1]
+        arm = inv["arm"]                              # base patterns [a0, alpha, w w^T (row-major)]
+        held_arm = np.einsum("p,pcj->cj", np.concatenate([alpha, np.outer(w, w).ravel()]), arm[3:])
+        Cx[M] = -field_x
+        Cx[M, :m] -= held_arm
+        Cu[M] = -field_u
+        Cu[M, a0_cols] -= skew(mc)                    # mc x a0
+        y0[M] = -(J0 @ alpha + cross(w, J0 @ w)) - field_0
+
+        # F_ext = sum F_I; M_ext = sum (x_I + u_I) x F_I + M_I: x_I x F_I is linear in ul, u_I x F_I (u_I = T eta)
+        # and the a0 arm patterns' moment are bilinear in eta and ul: M += ul @ (moment_arm @ eta).reshape(nl, 3)
+        moment_arm = np.zeros((nl, 3, m))
+        for i, D in enumerate(self.rows):
+            Cu[F, force_cols[i]] += eye3
+            Cu[M, force_cols[i]] += skew(self.points[i])
+            if moment_cols[i] is not None:
+                Cu[M, moment_cols[i]] += eye3
+            for a in range(3):                        # (T eta) x e_a = -e_a x (T eta)
+                moment_arm[force_cols[i].start + a] = -skew(eye3[a]) @ D[:3]
+        moment_arm[a0_cols] = -arm[:3]
+        return HeldMaps(force, force0, np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y0,
+                        moment_arm.reshape(nl * 3, m), M)
+
+
+@dataclass(frozen=True, slots=True)
+class HeldMaps:
+    """ClampedDynamics.held_maps: for x = [eta; eta_d] and the load vector ul (ClampedDynamics.n_loads), body frame,
+
+        r = force @ ul + force0                  (the right side of (B2), N per modal coordinate)
+        y = Cx @ x + Cu @ ul + y0,  y[moment] += ul @ (moment_arm @ eta).reshape(-1, 3)
+
+    y: per interface its position (m), elastic velocity (m/s), absolute acceleration (m/s^2), then the reaction
+    force (N) and moment about the body origin (N.m), as ClampedDynamics.interface_motion and reactions."""
+
+    force: np.ndarray
+    force0: np.ndarray
+    Cx: np.ndarray
+    Cu: np.ndarray
+    y0: np.ndarray
+    moment_arm: np.ndarray
+    moment: slice
