@@ -285,7 +285,7 @@ class ReframeIntegrator:
     # ---------------------------------------------------------------- initial conditions
     def initial_state(self, v0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 0.0), q0=None, qd0=None, *,
                       rotation0=None, position0=None, t0: float = 0.0) -> ReframeState:
-        """State from initial conditions (item 7).
+        """State from initial conditions.
 
         v0:         (3,) initial velocity of the centre of mass, global components, m/s.
         omega0:     (3,) initial angular velocity of the dummy body, body components, rad/s.

@@ -6,7 +6,7 @@
  * the host process already has (Python hosts).  It
  *  - starts an embedded interpreter when the process has none (home and site folders recorded at
  *    build time), releases the GIL and never finalises it: finalising an interpreter that has loaded
- *    numpy, scipy and numba is what crashes at exit, and CPython cannot start a second one;
+ *    numpy and scipy (and their BLAS threads) is what crashes at exit, and CPython cannot start a second one;
  *  - loads resources/flexfmu_loader.py into a fresh namespace (never through sys.modules, which would
  *    keep a module of an earlier, possibly deleted, extraction) and asks it for the slave factory;
  *  - calls the plumbing's methods, logs its queued messages, and turns an exception into a status:
