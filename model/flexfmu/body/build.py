@@ -16,6 +16,7 @@ from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
 from flexfmu.body.free import free_invariants
 from flexfmu.body.interfaces import resolve_interfaces
 from flexfmu.body.model import FlexBody, InterfaceData
+from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import finite, shown
 from flexfmu.core.io import validate_structure
 from flexfmu.core.structure import Structure
@@ -99,6 +100,15 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
     if not (finite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
         raise ParameterError("damping_ratio", f"{shown(damping_ratio)}", "0 <= damping_ratio < 1")
     checked = validate_structure(structure)
+    # the whole reduction (modes, sizing, static correction, invariants): one choke point for the BLAS threads
+    with limited_for(checked.n_dof):
+        return _reduced_body(structure, checked, interfaces, clamp, n_modes, f_max, tolerance, damping_ratio, name,
+                             added_mass)
+
+
+def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n_modes, f_max, tolerance,
+                  damping_ratio: float, name: str | None, added_mass) -> FlexBody:
+    """build_body after its checks (``checked``: the validated structure)."""
     checked = dataclasses.replace(checked, node_sets=structure.node_sets or {},
                                   constrained_dofs=structure.constrained_dofs, provenance=structure.provenance)
     patches = resolve_interfaces(checked, interfaces)

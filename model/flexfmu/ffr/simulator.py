@@ -28,6 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from flexfmu.core.blas import limited_for
 from flexfmu.ffr.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_model
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_str, round_down, shown)
@@ -162,7 +163,8 @@ def _truncated_modes(model, cfg: FFRBeamConfig, load_s: float, sensor_s: float, 
     truncation error of tip_u and sensor_u is within tolerance (Eq. (E) of flexfmu.sizing.model_size), computed
     from the lowest modes in doubling batches (the rest bounded by their static residual)."""
     first = solve_modes(model.K_free, model.M_free, 1)
-    probe = FFRBeamDynamics(model, first, cfg.damping_ratio, load_s, sensor_s)   # load patterns and points
+    with limited_for(model.n_dof):     # a small model's dense set-up: one BLAS thread (flexfmu.core.blas)
+        probe = FFRBeamDynamics(model, first, cfg.damping_ratio, load_s, sensor_s)   # load patterns and points
     patterns = ffr_load_patterns(probe)
     points = {"tip_u": probe.tip, "sensor_u": probe.sensor}
     k = min(model.n_free, 16)
@@ -237,10 +239,11 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     shown = modes.frequencies_hz[:N_REPORTED_FREQUENCIES]
     reported[:shown.size] = shown
     retained = type(modes)(modes.frequencies_hz[:n_modes], modes.shapes[:, :n_modes], modes.method)
-    dynamics = FFRBeamDynamics(model, retained, cfg.damping_ratio, load_s, sensor_s, integrator=cfg.integrator,
-                               geometric_stiffening=bool(cfg.geometric_stiffening))
     corrected = cfg.static_correction == 1 or (cfg.static_correction == -1 and cfg.n_modes == -1)
-    correction = ffr_static_correction(dynamics) if corrected and n_modes < model.n_free else None
+    with limited_for(model.n_dof):     # the dense invariants of a small model: one BLAS thread (flexfmu.core.blas)
+        dynamics = FFRBeamDynamics(model, retained, cfg.damping_ratio, load_s, sensor_s, integrator=cfg.integrator,
+                                   geometric_stiffening=bool(cfg.geometric_stiffening))
+        correction = ffr_static_correction(dynamics) if corrected and n_modes < model.n_free else None
     choice = ModelChoice(f_max=float(cfg.f_max), tolerance=float(cfg.tolerance), elements_per_segment=n_el,
                          mesh=mesh_choice, n_modes=n_modes, modes_chosen=cfg.n_modes == -1,
                          frequencies_hz=modes.frequencies_hz[:n_modes + 1].copy(), n_free=model.n_free,

@@ -14,6 +14,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from flexfmu.core.blas import limited_for
 from flexfmu.errors import require
 from flexfmu.linalg.cutoffs import BEAM_MODES_DENSE_MAX_DOF
 
@@ -71,6 +72,11 @@ def solve_modes(K, M, n_modes: int, method: str = "auto") -> Modes:
     require(method in ("auto", "dense", "sparse"), "method", f"got {method!r}", "auto | dense | sparse")
     if method == "auto":
         method = "dense" if n <= DENSE_LIMIT or n_modes >= n - 1 else "sparse"
+    with limited_for(n):          # small problems: BLAS threads only wait for cores (flexfmu.core.blas)
+        return _solve_modes(K, M, n_modes, method)
+
+
+def _solve_modes(K, M, n_modes: int, method: str) -> Modes:
     # Symmetric diagonal scaling D = diag(M)^-1/2: translational and rotational DOFs differ by
     # orders of magnitude in mass, which costs the generalised solvers digits otherwise.
     m_diag = M.diagonal() if sp.issparse(M) else np.diag(M)

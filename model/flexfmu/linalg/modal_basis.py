@@ -33,6 +33,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from flexfmu.core import cache as _cache
+from flexfmu.core.blas import limited_for
 from flexfmu.errors import ModalConvergenceError, ParameterError
 from flexfmu.core.io import validate_structure
 from flexfmu.linalg.cutoffs import BASIS_DENSE_MAX_DOF
@@ -428,6 +429,11 @@ def _check_residuals(KPsi: np.ndarray, MPsi: np.ndarray, absK_absPsi: np.ndarray
 
 def _compute(s: Structure, n: int, method: str, sigma: float) -> dict:
     """Rigid and flexible modes of a validated structure: the arrays of a ModalBasis except the damping."""
+    with limited_for(s.n_dof):    # small models: BLAS threads only wait for cores (flexfmu.core.blas)
+        return _compute_modes(s, n, method, sigma)
+
+
+def _compute_modes(s: Structure, n: int, method: str, sigma: float) -> dict:
     K, M = s.K, s.M
     n_dof = s.n_dof
     Phi, A, mass, c, inertia = _rigid_orthonormal(s)

@@ -45,6 +45,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_bool, require_real, require_str, round_down, shown)
 from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
@@ -157,8 +158,10 @@ def _integrator(model: str, n_flexible_modes: int, damping_ratio: float, scheme:
     require(isinstance(n_flexible_modes, (int, np.integer)) and -1 <= n_flexible_modes <= structure.n_dof - 6,
             "n_flexible_modes", f"got {n_flexible_modes!r}",
             f"-1 (choose from f_max, tolerance) or 0 .. {structure.n_dof - 6}")
-    choice = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node, output_node)
-    return ReframeIntegrator(structure, choice.basis, scheme=scheme), choice
+    # modes, sizing and the integrator's invariants: the set-up's one choke point for the BLAS threads
+    with limited_for(structure.n_dof):
+        choice = _basis(model, int(n_flexible_modes), damping_ratio, f_max, tolerance, load_node, output_node)
+        return ReframeIntegrator(structure, choice.basis, scheme=scheme), choice
 
 
 @lru_cache(maxsize=4)
