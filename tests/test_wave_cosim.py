@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from error_bounds import U
 from fmu_helpers import ROOT, Instance
 
 from flexfmu import cli
@@ -88,7 +89,9 @@ def test_fmpy_master_on_the_fmus_equals_the_library(fmu_dir):
         fmu = run(system, 0.2, scheme=scheme, backend="fmu")
         lib = run(system, 0.2, scheme=scheme, backend="library")
         worst, where = _max_rel_diff(fmu, lib)
-        assert worst <= 1e-13, (scheme, worst, where)
+        # identity: the FMUs run the same library simulators in this process (one interpreter, numpy, BLAS and
+        # cache), driven by the same master with the same time points, steps and doubles
+        assert worst == 0.0, (scheme, worst, where)
 
 
 def test_libcosim_and_the_fmpy_master_agree_to_1e9(fmu_dir):
@@ -97,7 +100,9 @@ def test_libcosim_and_the_fmpy_master_agree_to_1e9(fmu_dir):
     system = load_system(SYSTEM, fmu_dir=fmu_dir).with_values({"wave": {"ramp_time": 0.1}})
     ours = run(system, 0.5, scheme="jacobi", backend="fmu")
     theirs = run_libcosim(system, 0.5)
-    assert np.allclose(theirs.t, ours.t[1:], rtol=0, atol=1e-12)
+    # two roundings of t_k = k dt: libcosim's k n / 1e9 (integer ns n, one correctly rounded division: <= u t_k)
+    # and ours t0 + k h (h = fl(dt) <= u dt off, then the product and the sum: <= 3 u t_k)
+    assert np.all(np.abs(theirs.t - ours.t[1:]) <= 4 * U * np.abs(ours.t[1:]))
     assert abs(ours["platform.pos_z"]).max() > 1e-4           # the platform moves
     worst, where = _max_rel_diff(theirs, ours, slice(None), slice(1, None))
     assert worst <= 1e-9, (worst, where)
