@@ -151,7 +151,8 @@ def test_dense_and_sparse_agree(small_plate):
     # same mode shapes up to sign: |Psi_d^T M Psi_s| = I on the flexible block
     overlap = np.abs(dense.flexible.T @ (small_plate.M @ sparse.flexible))
     np.testing.assert_allclose(overlap, np.eye(12), atol=1e-6)
-    np.testing.assert_allclose(sparse.rigid, dense.rigid, atol=1e-12)
+    # identity: the rigid modes are built from the node positions by the same code whatever the eigensolver
+    np.testing.assert_array_equal(sparse.rigid, dense.rigid)
 
 
 def test_damping_diag():

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from error_bounds import U, gamma, mp_expm
 from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
@@ -170,7 +171,14 @@ def test_rodrigues_matches_scipy_and_expm():
         A = rotation_matrix(phi)
         R_ref = Rotation.from_rotvec(phi).as_matrix()     # body -> global
         np.testing.assert_allclose(A, R_ref.T, rtol=0, atol=1e-14)
-        np.testing.assert_allclose(A, expm(th * paper_skew(lam)), rtol=0, atol=5e-14)  # Eq. (18)
+        # Eq. (18) against e^W in mpmath (W = th paper_skew(lam) has the entries fl(th lam_i) = phi: the same input).
+        # Our Rodrigues I + sin(t) K + (1 - cos t) K^2 with |K_ij|, |K^2_ij| <= 1: evaluation <= gamma_8 (1 + |sin t|
+        # + |1 - cos t|) per entry; t = ||phi|| to gamma_3 (dA/dt = K A, ||K A|| <= 1) and K = phi / t to gamma_5,
+        # times the coefficients twice over (K^2) [ASNA 3.1]; u for rounding the 40-digit reference to doubles
+        s_, c_ = abs(np.sin(th)), abs(1 - np.cos(th))
+        bound = gamma(8) * (1 + s_ + c_) + gamma(3) * th + 2 * gamma(5) * (s_ + 2 * c_) + U
+        ref = np.array(mp_expm(th * paper_skew(lam)).tolist(), dtype=float)
+        assert np.abs(A - ref).max() <= bound, (th, np.abs(A - ref).max(), bound)
         # A maps global -> body: the body axes (columns of R_ref, global comps) map to unit vectors
         np.testing.assert_allclose(A @ R_ref, np.eye(3), rtol=0, atol=1e-14)
         np.testing.assert_allclose(A @ lam, lam, rtol=0, atol=1e-14)
