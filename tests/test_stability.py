@@ -21,6 +21,8 @@ from flexfmu.linalg.modal_basis import mass_properties, modal_basis
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, FixedFrameBaseline, ReframeIntegrator
 
+from error_bounds import gamma, implementations_bound
+
 AXES = "xyz"
 
 
@@ -236,6 +238,14 @@ def momentum_and_energy(integ, structure, state):
     return L, 0.5 * ns.velocity_body @ Mw + 0.5 * ns.displacement @ (structure.K @ ns.displacement)
 
 
+def momentum_term_size(integ, structure, state):
+    """sum over nodes of |x| (|M| |v|) + |M| |v| (rotational DOFs): the size of the terms summed into L."""
+    ns = integ.nodal_state(state)
+    aMv = (abs(structure.M) @ np.abs(ns.velocity_body)).reshape(structure.nodes.shape[0], -1)
+    return float(np.linalg.norm(ns.positions, axis=1) @ np.linalg.norm(aMv[:, :3], axis=1)
+                 + np.linalg.norm(aMv[:, 3:], axis=1).sum())
+
+
 def tumbling_drift(rod, scheme, dt, t_end=1.0, records=10):
     basis = modal_basis(rod, 3, damping_ratio=0.0)
     _, axes = principal_axes(rod)
@@ -244,13 +254,20 @@ def tumbling_drift(rod, scheme, dt, t_end=1.0, records=10):
     L0, E0 = momentum_and_energy(integ, rod, s)
     n = int(round(t_end / dt))
     dL = dE = flip = 0.0
+    size = momentum_term_size(integ, rod, s)
     for _ in range(records):
         s = integ.advance_steps(s, dt, n // records)
         L, E = momentum_and_energy(integ, rod, s)
+        size = max(size, momentum_term_size(integ, rod, s))
         dL = max(dL, float(np.linalg.norm(L - L0) / np.linalg.norm(L0)))
         dE = max(dE, abs(E - E0) / E0)
         flip = max(flip, math.degrees(math.acos(np.clip((s.rotation @ axes[:, 1]) @ axes[:, 1], -1, 1))))
-    return dL, dE, flip
+    # L is the consistent scheme's state, conserved exactly by its step map (a rotation of it: growth 1): per
+    # step 4 RK4 stages of a 9 x 9 mass solve (~27 roundings), the right-hand side (~24) and the stage sum (4),
+    # plus the reframing and the frame update (~20): ~240, over-counted as 256, on |L|; measuring L (sparse
+    # M v, <= 24 terms a row, rotation, cross, 13-node sum: < 48 roundings) on the terms' size, L0 and L
+    bound = (implementations_bound(np.linalg.norm(L0), 256, 1.0, n) + 2.0 * gamma(48) * size) / np.linalg.norm(L0)
+    return dL, dE, flip, bound
 
 
 def test_tumbling_paper_scheme_drifts_consistent_conserves(rod):
@@ -265,6 +282,6 @@ def test_tumbling_paper_scheme_drifts_consistent_conserves(rod):
           f"flip {cons[0][2]:.0f} deg; consistent energy drift {[f'{c[1]:.3g}' for c in cons]}, orders {orders}")
     assert cons[0][2] > 90.0                                   # it does tumble
     assert paper[0] > 1e-3
-    assert max(c[0] for c in cons) < 1e-11
+    assert all(c[0] <= c[3] for c in cons)                      # conserved to a derived rounding bound
     assert paper[0] > 1e8 * cons[0][0]
     assert min(orders) > 3.5
