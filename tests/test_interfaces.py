@@ -9,7 +9,8 @@ import pytest
 import scipy.sparse as sp
 
 from conftest import straight_rod
-from flexfmu.body.interfaces import Interface, resolve_interfaces
+from error_bounds import gamma, implementations_bound
+from flexfmu.body.interfaces import RANK_RTOL, Interface, _fit, _local_spacing, resolve_interfaces
 from flexfmu.core.structure import Structure
 from flexfmu.errors import ParameterError
 from flexfmu.ffr.assembly import build_beam_model
@@ -33,6 +34,26 @@ def _skew(r):
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
+def _fit_error(structure, patch):
+    """(e, l): a bound e on ||D G - I|| (G the patch's rigid motions, in the fit's scaled coordinates [u; l theta])
+    and the fit's length l.  D = S As^-1 S B^T W solves with the 6 x 6 As = S A S whose entries are sums over the k
+    patch nodes (k + 2 roundings, terms |B|^T|B| <= 6 ||As|| in norm), LU (gamma(18)) or the eigen-decomposition
+    of pinv (generously 100 roundings): backward error E, ||E|| <= 6 gamma(2k + 100) ||As||, so ||D G - I|| <=
+    kappa ||E|| / ||As||, kappa over the eigenvalues the fit keeps (RANK_RTOL) [ASNA 7.1]."""
+    nodes = np.asarray(structure.nodes, float)
+    xyz = nodes[patch.nodes]
+    radius = float(np.max(np.linalg.norm(xyz - xyz.mean(axis=0), axis=1)))
+    near = int(patch.nodes[np.argmin(np.linalg.norm(xyz - patch.point, axis=1))])
+    size = float(np.linalg.norm(np.ptp(nodes, axis=0))) or 1.0
+    length = radius if radius > 0 else (_local_spacing(nodes, near) or size)
+    rotations = structure.dofs_per_node == 6 and patch.dofs.size == 6 * patch.nodes.size
+    A, _ = _fit(xyz - patch.point, structure.dofs_per_node, rotations, length)
+    S = np.diag([1.0] * 3 + [1.0 / length] * 3)
+    lam = np.linalg.eigvalsh(S @ A @ S)
+    kappa = lam[-1] / lam[lam > RANK_RTOL * lam[-1]].min()
+    return 6 * kappa * gamma(2 * patch.nodes.size + 100), length
+
+
 def _check_balances(structure, patch, rng):
     """sum f_i = F, sum (r_i x f_i + m_i) = M, reciprocity, and a rigid patch motion fitted exactly."""
     dpn = structure.dofs_per_node
@@ -42,17 +63,26 @@ def _check_balances(structure, patch, rng):
     forces = f.reshape(-1, dpn)[:, :3]
     moments = f.reshape(-1, dpn)[:, 3:] if dpn == 6 else np.zeros((f.size // 3, 3))
     r = structure.nodes - patch.point
-    np.testing.assert_allclose(forces.sum(axis=0), FM[:3], rtol=1e-12, atol=1e-12 * np.abs(FM).max())
+    # sum f_i = (D G)^T [F; M] = F exactly: ||D G - I|| (_fit_error) of [F; M / l], + the k-term sums here
+    e, l = _fit_error(structure, patch)
+    F_, M_ = np.abs(FM[:3]).sum(), np.abs(FM[3:patch.n_loads]).sum()
+    k = patch.nodes.size
+    bound = e * (F_ + M_ / l) + gamma(k) * np.abs(forces).sum(axis=0)
+    assert np.all(np.abs(forces.sum(axis=0) - FM[:3]) <= bound)
     total_moment = np.cross(r, forces).sum(axis=0) + moments.sum(axis=0)
     want = FM[3:] if patch.moments else np.zeros(3)
-    scale = np.abs(FM).max() * max(1.0, np.abs(r[patch.nodes]).max())
-    np.testing.assert_allclose(total_moment, want, atol=1e-12 * scale)
+    # the same in the moment rows: e (l F + M), + cross products and 2k + 1 sums of terms |r||f| and |m|
+    terms = 2 * (np.abs(r) * np.abs(forces).sum(axis=1, keepdims=True)).sum(axis=0).max() + np.abs(moments).sum()
+    bound = e * (l * F_ + M_) + gamma(2 * k + 3) * terms
+    assert np.all(np.abs(total_moment - want) <= bound)
     # reciprocity: the work of F, M on the fitted (u, theta) equals the work of the nodal loads on the motion
     d = rng.normal(size=n)
     fit = np.zeros(6)
     fit[:] = patch.D @ d[patch.dofs]
     w_point = FM[:3] @ fit[:3] + (FM[3:] @ fit[3:] if patch.moments else 0.0)
-    assert w_point == pytest.approx(f @ d, rel=1e-12, abs=1e-14)
+    # the same D both ways, FM . (D d) vs (D^T FM) . d: two orders of the same sums of |FM| |D| |d| terms
+    scale = np.abs(FM[:patch.n_loads]) @ np.abs(patch.D[:patch.n_loads]) @ np.abs(d[patch.dofs])
+    assert abs(w_point - f @ d) <= implementations_bound(scale, patch.dofs.size + 6)
     # a rigid motion of the patch: u_i = u0 + theta0 x r_i (rotations theta0) is fitted exactly
     u0, th0 = rng.normal(size=3), rng.normal(size=3) * 0.1
     rigid = np.zeros(n)
@@ -86,7 +116,10 @@ def test_beam_node_is_a_rigid_link_and_carries_moments(rod, rng):
     # about it, (x_P - x_node) x F = (0, 0.01, 0) x (1, 0, 0) = (0, 0, -0.01)
     f = q.loads(rod.n_dof) @ np.array([1.0, 0, 0, 0, 0, 0])
     node = int(q.nodes[0])
-    np.testing.assert_allclose(f[6 * node + 3:6 * node + 6], [0.0, 0.0, -0.01], atol=1e-15)
+    # ||D G - I|| (_fit_error) of the unit force, as a moment l |F|; the arm P - x_node within gamma(1) |P|
+    e, l = _fit_error(rod, q)
+    bound = e * l + gamma(1) * np.abs(q.point).max()
+    assert np.all(np.abs(f[6 * node + 3:6 * node + 6] - [0.0, 0.0, -0.01]) <= bound)
 
 
 def test_colinear_solid_patch_is_force_only(plate, rng):
