@@ -10,6 +10,8 @@ import sys
 import numpy as np
 import pytest
 
+from error_bounds import gamma
+
 meshio = pytest.importorskip("meshio")
 
 E, NU, RHO = 2.1e11, 0.3, 7850.0
@@ -70,7 +72,12 @@ def test_modal_of_a_free_mesh_gives_the_free_free_beam_frequencies(bar, tmp_path
     run = flexfmu("modal", bar.with_suffix(".json"), "--modes", 4, "--json", "--plot", tmp_path / "modes.png")
     assert run.returncode == 0, run.stderr
     result = json.loads(run.stdout.splitlines()[0])
-    assert result["kind"] == "free" and result["mass_kg"] == pytest.approx(RHO * L * B * H, rel=1e-12)
+    # mass = mean of 1^T M_xx 1: per M entry <= 27 quadrature terms of ~50 roundings (shape functions, detJ from
+    # linspace coordinates, products) and <= 8 elements; M @ 1 (<= 125 a row), the 729-node sum, the mean and
+    # RHO L B H: < 1024; the terms sum to <= (5/4)^6 < 4 times the mass (quadratic Lagrange: sum |N_i| <= 5/4
+    # a direction); the JSON float is repr, exact
+    assert result["kind"] == "free" and result["mass_kg"] == pytest.approx(RHO * L * B * H, rel=4 * gamma(1024),
+                                                                           abs=0)
     f = np.array(result["frequencies_hz"])
     # square section: each bending mode twice (y and z); beta_1 L = 4.7300, beta_2 L = 7.8532; the solid sits
     # below Euler-Bernoulli by shear and rotary inertia, by no more than the first-order Timoshenko drop
