@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from error_bounds import gamma
+from error_bounds import gamma, implementations_bound
 from flexfmu.errors import ParameterError
 from flexfmu.wec.hydrostatics import HydrostaticsConfig, HydrostaticsSimulator
 from flexfmu.wec.platform import PlatformConfig, PlatformSimulator
@@ -89,8 +89,15 @@ def test_wave_excitation_ramp_and_output_match_the_transfer_function():
     out = sim.outputs()
     w = 2 * math.pi / cfg.wave_period
     expected = (X[:, 0] * cfg.wave_height / 2 * np.exp(-1j * w * sim.time)).real
-    assert np.allclose([out[n] for n in ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")], expected, rtol=1e-12, atol=1e-12)
-    assert out["eta"] == pytest.approx(cfg.wave_height / 2 * math.cos(w * sim.time), rel=1e-12)
+    # X: the same function of the same box and wave (same bits); the angle fl(w t), w = 2 pi / T, the same bits on
+    # both sides; each side within gamma(7) of Re(X a e^{-i w t}) at that angle: a X (1 rounding), the complex
+    # product (2), cos/sin within 4 ulp (libm or numpy SIMD, generously); terms (|Re X| + |Im X|) a (ramp(2.5, 2) = 1)
+    got = np.array([out[n] for n in ("F_x", "F_y", "F_z", "M_x", "M_y", "M_z")])
+    scale = (np.abs(X[:, 0].real) + np.abs(X[:, 0].imag)) * cfg.wave_height / 2
+    assert np.all(np.abs(got - expected) <= implementations_bound(scale, 7))
+    # eta: a cos(fl(w t)) both sides (same angle bits): the product (1 rounding) and cos (4 ulp): gamma(5) a each
+    eta = cfg.wave_height / 2 * math.cos(w * sim.time)
+    assert abs(out["eta"] - eta) <= implementations_bound(cfg.wave_height / 2, 5)
     assert ramp(1.0, 2.0) == pytest.approx(0.5)
     with pytest.raises(ParameterError, match="sea_state"):
         WaveExcitationSimulator(WaveExcitationConfig(sea_state="storm"))
@@ -129,12 +136,28 @@ def test_platform_exact_step_work_bookkeeping_and_mount_loads():
     sim = PlatformSimulator(cfg)
     rng = np.random.default_rng(5)
     ke0 = 0.0
+    M, absM, absMi = sim.M, np.abs(sim.M), np.abs(sim.M_inv)
+    # the inverse's residual |M M_inv - I|, computed (6 terms and the subtraction: + gamma(7) |M||M_inv|)
+    residual = np.abs(M @ sim.M_inv - np.eye(6)) + gamma(7) * absM @ absMi
+    bound = 0.0
     for _ in range(50):                                   # random held loads, variable steps
         sim.set_inputs(**{n: float(rng.normal()) for n in sim.inputs})
-        sim.step(float(rng.uniform(1e-4, 5e-3)))
+        h = float(rng.uniform(1e-4, 5e-3))
+        v0, Q, acc = np.abs(sim.xi_dot), np.abs(sim.group_loads()), np.abs(sim.acceleration())
+        sim.step(h)
+        d = h * v0 + 0.5 * h * h * acc                    # |d_xi|'s terms
+        w = v0 + np.abs(sim.xi_dot) + h * acc
+        # exact: KE(v + h a) - KE(v) = (M a) . d_xi; per step (M a - Q) . d_xi with a = fl(M_inv Q), |M a - Q| <=
+        # (residual + gamma(9) |M||M_inv|) |Q| (6-term matvec, 4-group sum), the rounding of d_xi (gamma(4)
+        # |M||a| . d), of Q . d_xi and the work's running sums over 50 steps and 4 groups (gamma(6 + 50 + 3)), and
+        # of v + h a (gamma(2) |v|+h|a| against M (v_k + v_k+1) / 2: gamma(2) w^T |M| w)
+        bound += ((residual + gamma(9) * absM @ absMi) @ Q.sum(axis=0)) @ d + gamma(4) * (absM @ acc) @ d
+        bound += gamma(59) * (Q @ d).sum() + gamma(2) * w @ absM @ w
     out = sim.outputs()
-    assert out["kinetic_energy"] - ke0 == pytest.approx(sum(out[f"work_{g}"] for g in ("wave", "hydro", "payload", "pto")),
-                                                        rel=1e-12)
+    v = np.abs(sim.xi_dot)
+    bound += gamma(7) * v @ absM @ v                      # the final 0.5 v^T M v (ke0 = 0 exactly)
+    work = sum(out[f"work_{g}"] for g in ("wave", "hydro", "payload", "pto"))
+    assert abs(out["kinetic_energy"] - ke0 - work) <= bound
     # constant force from rest: x = F t^2 / 2 (M^-1 F), exactly, in one or many steps
     a = PlatformSimulator(cfg)
     b = PlatformSimulator(cfg)
@@ -143,13 +166,28 @@ def test_platform_exact_step_work_bookkeeping_and_mount_loads():
     a.step(0.4)
     for _ in range(8):
         b.step(0.05)
-    acc = np.linalg.solve(a.M, np.array([1.0, 0, 3.0, 0, 1.0 * 0.2, 0]))   # payload F_x at the mount: M_y = z_m F_x
-    assert np.allclose(a.xi, 0.5 * acc * 0.16, rtol=1e-13)
-    assert np.allclose(b.xi, a.xi, rtol=1e-12)
+    rhs = np.array([1.0, 0, 3.0, 0, 1.0 * 0.2, 0])
+    acc = np.linalg.solve(a.M, rhs)   # payload F_x at the mount: M_y = z_m F_x
+    acc_sim = a.acceleration()        # fl(M_inv Q), Q = rhs exactly (the cross product r_m x F of 0.2 and 0s)
+
+    def solve_error(x):
+        # |x - M^-1 b| <= |M^-1| |M x - b|, the residual computed within gamma(7) (|M||x| + |b|) (first order in u)
+        return np.abs(a.M_inv) @ (np.abs(a.M @ x - rhs) + gamma(7) * (np.abs(a.M) @ np.abs(x) + np.abs(rhs)))
+    # a.xi = fl(0.5 fl(h h) acc_sim), h = fl(0.4); 0.5 acc fl(0.16): each within gamma(4) of 0.08 x (0.4, 0.16 decimal)
+    err = solve_error(acc) + solve_error(acc_sim)
+    assert np.all(np.abs(a.xi - 0.5 * acc * 0.16) <= 0.08 * (err + gamma(4) * (np.abs(acc) + np.abs(acc_sim))))
+    # the same acc_sim bits in a and b (same M, same inv); fl(0.05) = fl(0.4) / 8 exactly, so equal in exact
+    # arithmetic.  Per step 5 roundings (h v, h h, . acc, two sums; v + h acc) on terms <= |xi| + h |v| at the end
+    # (all of one sign from rest), carried by the step map in (xi, h v): [[1, 1], [0, 1]], 1-norm 2, over 8 steps
+    scale = np.abs(b.xi) + 0.05 * np.abs(b.xi_dot)
+    assert np.all(np.abs(b.xi - a.xi) <= implementations_bound(scale, 5, growth=2.0, n_steps=8))
     out = a.outputs()
     alpha = np.array([out["alpha_x"], out["alpha_y"], out["alpha_z"]])
     mount_a = np.array([out[f"mount_a_{c}"] for c in "xyz"])
-    assert np.allclose(mount_a, acc[:3] + np.cross(alpha, cfg.mount), rtol=1e-13)
+    # acc vs acc_sim as above; each side's cross product and sum (3 roundings) of terms <= |acc| + sum|alpha| sum|r|
+    terms = np.abs(acc_sim[:3]) + np.abs(alpha).sum() * np.abs(cfg.mount).sum()
+    bound = (solve_error(acc) + solve_error(acc_sim))[:3] + implementations_bound(terms, 3)
+    assert np.all(np.abs(mount_a - (acc[:3] + np.cross(alpha, cfg.mount))) <= bound)
     with pytest.raises(ParameterError, match="diverged"):
         a.set_inputs(wave_F_z=1e9)
         a.step(1.0)
