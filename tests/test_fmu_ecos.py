@@ -189,11 +189,6 @@ def assert_printed_equal(text_rows, reference: np.ndarray, columns, message):
 
 
 # ---------------------------------------------------------------- fmpy references
-def pair_reference(fmus):
-    components = {name: (fmus[model], start) for name, (model, start) in PAIR["components"].items()}
-    return jacobi_reference(components, PAIR["connections"], PAIR["outputs"], ecos_times(PAIR["steps"], H))
-
-
 JACOBI_DRIVER = r"""
 import json, sys
 sys.path.insert(0, sys.argv[1])
@@ -205,16 +200,21 @@ print("ROWS " + json.dumps([[repr(float(x)) for x in r] for r in rows]))
 """
 
 
-def pair_reference_in(fmus, env, cwd):
-    """pair_reference in a subprocess with the environment ``env`` of the host it is compared with (module
-    docstring: then it is the same computation)."""
-    components = {name: (str(fmus[model]), start) for name, (model, start) in PAIR["components"].items()}
+def reference_in(components, connections, outputs, times, env, cwd):
+    """jacobi_reference in a subprocess with the environment ``env`` of the host it is compared with (module
+    docstring: then it is the same computation, down to the sign of a zero)."""
+    components = {name: (str(fmu), start) for name, (fmu, start) in components.items()}
     proc = run_host([sys.executable, "-c", JACOBI_DRIVER, Path(__file__).resolve().parent, json.dumps(components),
-                     json.dumps(PAIR["connections"]), json.dumps(PAIR["outputs"]),
-                     json.dumps(ecos_times(PAIR["steps"], H))], env, cwd, timeout=300)
+                     json.dumps(list(connections)), json.dumps(list(outputs)), json.dumps(times)], env, cwd,
+                    timeout=300)
     line = [ln for ln in proc.stdout.splitlines() if ln.startswith("ROWS ")]
     assert proc.returncode == 0 and line, "the fmpy reference failed" + describe(proc, env)
     return np.array([[float(x) for x in r] for r in json.loads(line[-1][5:])])
+
+
+def pair_reference_in(fmus, env, cwd):
+    components = {name: (fmus[model], start) for name, (model, start) in PAIR["components"].items()}
+    return reference_in(components, PAIR["connections"], PAIR["outputs"], ecos_times(PAIR["steps"], H), env, cwd)
 
 
 def build_pair_ssp(fmus, folder: Path) -> Path:
@@ -282,7 +282,7 @@ def test_ecos_cli_one_fmu_through_proxyfmu(ecos, fmus, home, tmp_path, name):
     check_ecos_ran(proc, message)
     assert "[proxyfmu] Booting FMU instance 'body'" in proc.stdout + proc.stderr, message
     times, texts = read_ecos_csv(csv_path, columns, message)
-    reference = jacobi_reference({"body": (fmus[name], start)}, (), columns, ecos_times(steps, H))
+    reference = reference_in({"body": (fmus[name], start)}, (), columns, ecos_times(steps, H), env, tmp_path)
     assert_printed_equal(texts, reference, columns, message)
 
 
@@ -296,7 +296,7 @@ def test_ecos_cli_coupled_pair_in_a_zipped_ssp(ecos, fmus, home, tmp_path):
     text = proc.stdout + proc.stderr
     assert "Booting FMU instance 'harvester'" in text and "Booting FMU instance 'pto'" in text, message
     times, texts = read_ecos_csv(csv_path, PAIR["outputs"], message)
-    reference = pair_reference(fmus)
+    reference = pair_reference_in(fmus, env, tmp_path)
     assert np.abs(reference[:, 3]).max() > 0.1        # the damper force acts: the coupling matters
     assert_printed_equal(texts, reference, PAIR["outputs"], message)
 
