@@ -345,3 +345,41 @@ def test_ffrbeam_fast_maps_equal_term_by_term_formulas():
             b = [ref[f"{group}_{x}"] for x in "xyz"]
             assert _rel(a, b) < 1e-12, group
         assert abs(fast["elastic_energy"] - ref["elastic_energy"]) <= 1e-12 * ref["elastic_energy"]
+
+
+# --------------------------------------------------------------------------- clamped body maps
+def test_clamped_body_held_maps_equal_term_by_term_formulas():
+    """The clamped engine's step and outputs (ClampedDynamics.held_maps, multiplied out per held base rotation)
+    against ClampedDynamics.step, acceleration, interface_motion and reactions; an interface with a moment input
+    and one without, random inputs and states (the loads' and the base acceleration's moment arms are bilinear)."""
+    import dataclasses
+
+    from conftest import straight_rod
+    from flexfmu.body.build import build_body
+    from flexfmu.body.simulator import FlexBodyConfig, FlexBodySimulator
+    from flexfmu.ffr.assembly import build_beam_model
+
+    s = build_beam_model(straight_rod(0.5, 0.01, direction=(1.0, 0.3, -0.2)), "free", 8).structure()
+    s = dataclasses.replace(s, node_sets={"root": np.array([0])})
+    body = build_body(s, interfaces=[{"name": "tip", "point": s.nodes[-1].tolist()},
+                                     {"name": "mid", "point": s.nodes[4].tolist(), "moments": False}],
+                      clamp="root", n_modes=6)
+    sim = FlexBodySimulator(body, FlexBodyConfig(damping_ratio=0.05))
+    engine, dyn = sim.engine, sim.engine.dyn
+    assert [i.moments for i in body.interfaces] == [True, False]
+    rng = np.random.default_rng(17)
+    scale = np.array([1, 1, 1, 0.1, 0.1, 0.1, 2, 2, 2, 3, 3, 3, 9, 9, 9, 40, 40, 40], float)
+    for case in range(5):
+        u = rng.standard_normal(len(sim.input_names)) * scale
+        if case == 0:
+            u[12:] = 0.0                                     # no base rotation
+        sim.set_input_vector(u.tolist())
+        engine.x = rng.standard_normal(2 * dyn.m) * 1e-4
+        before = engine.x.copy()
+        sim.step(1e-3)
+        ref = dyn.step(before, 1e-3, engine.loads, engine.a0, engine.w, engine.alpha)
+        assert _rel(engine.x, ref) < 1e-12
+        fast, terms = engine.outputs(), engine.outputs_by_terms()
+        for group in range(len(fast) // 3):                  # each 3-vector: position, velocity, ..., M
+            assert _rel(fast[3 * group:3 * group + 3], terms[3 * group:3 * group + 3]) < 1e-12, group
+        assert np.array_equal(sim.output_vector()[len(fast):], body.natural_frequencies_hz)

@@ -4,12 +4,14 @@ state and the held inputs, splits a communication step into internal steps (coun
 the outputs in the order of flexfmu.body.simulator.output_names."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 
-from flexfmu.body.clamped_dynamics import ClampedDynamics
+from flexfmu.body.clamped_dynamics import MAP_MEMO_SIZE, ClampedDynamics, HeldMaps
 from flexfmu.body.free import FreeDynamics
+from flexfmu.core.cache import BoundedCache
 from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit, round_down
 from flexfmu.errors import NonFiniteError, ParameterError, StepRejected
 from flexfmu.reframe.layout import output_layout
@@ -131,7 +133,11 @@ class FreeEngine:
 
 
 class ClampedEngine:
-    """A clamped body: x = [eta; eta_d] and t; inputs [F, M] per interface then a0, w, alpha (body frame)."""
+    """A clamped body: x = [eta; eta_d] and t; inputs [F, M] per interface then a0, w, alpha (body frame).
+
+    Per step and output read only matrix-vector products: the modal force and the outputs are affine maps of the
+    load vector ul = [F, M per interface, a0] (a prefix of the inputs) and x for the held base rotation
+    (ClampedDynamics.held_maps, cached per (w, alpha) as the step maps are per (h, w, alpha))."""
 
     def __init__(self, body, config, zeta: float, names):
         self.names = list(names)
@@ -147,18 +153,55 @@ class ClampedEngine:
             raise ParameterError("internal_step", f"{self.internal_step:g} s needs more than max_internal_steps = "
                                  f"{self.cap} for a {MIN_COMMUNICATION_STEP:g} s communication step",
                                  f"0 (one exact step) or >= {MIN_COMMUNICATION_STEP / self.cap:.3g} s")
-        self.loads = np.zeros((len(ifs), 6))
-        self.a0 = self.w = self.alpha = np.zeros(3)
-        self.inputs_vec = np.zeros(sum(6 if m else 3 for m in self.moments) + 9)
+        self.n_loads = self.dyn.n_loads()
+        # where each load input goes in the (n_if, 6) [F, M] table of the term-by-term formulas
+        self._load_slots = np.array([6 * i + j for i, mom in enumerate(self.moments) for j in range(6 if mom else 3)],
+                                    dtype=np.intp)
+        self._frequencies = np.asarray(body.natural_frequencies_hz, dtype=float)
+        self._n_outputs = 9 * len(ifs) + 6              # before the frequencies
+        self._held_maps = BoundedCache(MAP_MEMO_SIZE)
+        self.hold(np.zeros(self.n_loads + 6))
 
     def hold(self, u: np.ndarray) -> None:
         self.inputs_vec = u
-        k = 0
-        for i, mom in enumerate(self.moments):
-            n = 6 if mom else 3
-            self.loads[i, :n] = u[k:k + n]
-            k += n
-        self.a0, self.w, self.alpha = u[k:k + 3].copy(), u[k + 3:k + 6].copy(), u[k + 6:k + 9].copy()
+        k = self.n_loads
+        self._loads_held = u[:k]
+        self._w_key, self._alpha_key = tuple(u[k:k + 3].tolist()), tuple(u[k + 3:k + 6].tolist())
+
+    # the held inputs as the term-by-term formulas of ClampedDynamics take them (copies: the caller may keep them)
+    @property
+    def loads(self) -> np.ndarray:
+        """(n_if, 6) [F, M] per interface, body frame (M zero where the interface carries no moment)."""
+        table = np.zeros(6 * len(self.moments))
+        table[self._load_slots] = self.inputs_vec[:self.n_loads - 3]
+        return table.reshape(-1, 6)
+
+    @property
+    def a0(self) -> np.ndarray:
+        return self.inputs_vec[self.n_loads - 3:self.n_loads].copy()
+
+    @property
+    def w(self) -> np.ndarray:
+        return np.array(self._w_key)
+
+    @property
+    def alpha(self) -> np.ndarray:
+        return np.array(self._alpha_key)
+
+    def _maps(self) -> HeldMaps:
+        """The HeldMaps of the held base rotation (cached), their outputs followed by the natural frequencies
+        (constant rows): output_vector in one product."""
+        key = self._w_key + self._alpha_key
+        hit = self._held_maps.get(key)
+        if hit is None:
+            with np.errstate(all="ignore"):          # a huge rotation: found by value in the step and the outputs
+                maps = self.dyn.held_maps(self._w_key, self._alpha_key)
+            nf = self._frequencies.size
+            hit = self._held_maps[key] = dataclasses.replace(
+                maps, Cx=np.vstack([maps.Cx, np.zeros((nf, maps.Cx.shape[1]))]),
+                Cu=np.vstack([maps.Cu, np.zeros((nf, maps.Cu.shape[1]))]),
+                y0=np.concatenate([maps.y0, self._frequencies]))
+        return hit
 
     def split(self, h: float):
         if self.internal_step == 0:
@@ -176,23 +219,47 @@ class ClampedEngine:
         return culprit(scores)
 
     def advance(self, h: float, n: int) -> bool:
-        with np.errstate(all="ignore"):
-            Ad, Bd = self.dyn.transition(h / n, tuple(self.w.tolist()), tuple(self.alpha.tolist()))
-            b = Bd @ self.dyn.modal_force(self.loads, self.a0, self.w, self.alpha)
-            x = self.x
-            for _ in range(n):                              # n <= max_internal_steps (split)
-                x = Ad @ x + b
-        if not np.all(np.isfinite(x)):
+        """Step by h in n exact steps; False (the state kept) when the state overflows.  Called under
+        np.errstate(all="ignore") (FlexBodySimulator.step): overflow is found by value."""
+        Ad, Bd = self.dyn.transition(h / n, self._w_key, self._alpha_key)
+        maps = self._maps()
+        r = maps.force @ self._loads_held                   # right side of (B2)
+        r += maps.force0
+        b = Bd @ r
+        x = self.x
+        for _ in range(n):                                  # n <= max_internal_steps (split)
+            x = Ad @ x
+            x += b
+        # x.x is finite when x is (unless |x| > 1e154): the element-wise check only then
+        if not x.dot(x) < math.inf and not np.all(np.isfinite(x)):
             return False
         self.x, self.t = x, self.t + h
         return True
 
+    def output_vector(self) -> np.ndarray:
+        """All outputs in flexfmu.body.simulator.output_names order: outputs() and the natural frequencies (Hz).
+        Where the held maps overflow, the term-by-term formulas decide (they may not).  Called under
+        np.errstate(all="ignore") (FlexBodySimulator.output_vector)."""
+        maps, x, ul = self._maps(), self.x, self._loads_held
+        y = maps.Cx @ x
+        y += maps.Cu @ ul
+        y += maps.y0
+        y[maps.moment] += ul @ (maps.moment_arm @ x[:self.dyn.m]).reshape(-1, 3)
+        if not y.dot(y) < math.inf and not np.all(np.isfinite(y)):
+            y = np.concatenate([self.outputs_by_terms(), self._frequencies])
+        return y
+
     def outputs(self, include_deferred: bool = True) -> np.ndarray:
-        d, x = self.dyn, self.x
+        """Interface motion then reactions (ClampedDynamics.interface_motion, reactions), from the held maps."""
+        return self.output_vector()[:self._n_outputs]
+
+    def outputs_by_terms(self) -> np.ndarray:
+        """outputs() by the term-by-term formulas of ClampedDynamics (what the held maps multiply out)."""
+        d, x, loads = self.dyn, self.x, self.loads
         a0, w, al = self.a0, self.w, self.alpha
-        eta_dd = d.acceleration(x, self.loads, a0, w, al)
+        eta_dd = d.acceleration(x, loads, a0, w, al)
         motion = d.interface_motion(x, eta_dd, a0, w, al)
-        F, M = d.reactions(x, eta_dd, self.loads, a0, w, al)
+        F, M = d.reactions(x, eta_dd, loads, a0, w, al)
         return np.concatenate([motion.ravel(), F, M])
 
     def get(self) -> dict:

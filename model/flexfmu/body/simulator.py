@@ -267,6 +267,12 @@ class FlexBodySimulator:
         values = list(values)
         if len(values) != len(self.input_names):
             raise ParameterError("inputs", f"{len(values)} values", f"{len(self.input_names)} values")
+        # the FMU's per-step path (finite floats, checked at once); anything else set_inputs checks and names
+        if all(type(v) is float for v in values) and all(map(math.isfinite, values)):
+            self._u = np.array(values)
+            self.inputs = dict(zip(self.input_names, values))
+            self.engine.hold(self._u)
+            return
         self.set_inputs(**dict(zip(self.input_names, values)))
 
     # ---- stepping
@@ -303,10 +309,13 @@ class FlexBodySimulator:
     def output_vector(self, include_deferred: bool = True) -> np.ndarray:
         """All outputs in output_names order (max_elastic_displacement = -1 when include_deferred is False)."""
         with np.errstate(all="ignore"):
-            raw = self.engine.outputs(include_deferred)
-            y = np.concatenate([raw[self._columns], _frame_global(raw[self._rotation]), self._f]
-                               if self.body.kind == "free" else [raw, self._f])
-        if not np.all(np.isfinite(y)):
+            if self.body.kind == "free":
+                raw = self.engine.outputs(include_deferred)
+                y = np.concatenate([raw[self._columns], _frame_global(raw[self._rotation]), self._f])
+            else:
+                y = self.engine.output_vector()
+        # y.y is finite when y is (unless |y| > 1e154): the element-wise check only then
+        if not y.dot(y) < math.inf and not np.all(np.isfinite(y)):
             bad = [self.output_names[i] for i in np.flatnonzero(~np.isfinite(y))]
             raise self._overflow(", ".join(bad[:4]))
         return y
