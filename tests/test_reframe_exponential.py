@@ -19,6 +19,8 @@ from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.plate import paper_plate
 from flexfmu.reframe.integrator import SCHEMES, PointLoad, ReframeIntegrator, exponential_coefficients, half_sine_pulse
+from error_bounds import U, gamma
+from reframe_bounds import outputs_bound, steps_bound
 from test_reframe import invariants, mass_properties
 
 OMEGA0 = np.array([5.0, 2.0, 8.0])
@@ -212,11 +214,15 @@ def test_c_kernels_equal_numpy_versions(beam, scheme):
     y_c, t_c, k_c, st_c = K.reframe_steps(*args)
     y_np, t_np, k_np, st_np = K.reframe_steps_numpy(*args)
     assert (k_c, st_c) == (k_np, st_np) == (n, 0) and t_c == t_np
-    assert np.max(np.abs(y_c - y_np)) <= 1e-12 * np.max(np.abs(y_np))
+    # C vs numpy, two double implementations: the a-priori bound of tests/reframe_bounds.py (gamma of the longest
+    # rounding chain x the terms' size, carried n steps by the computed flexible-map growth and the rigid Lipschitz)
+    assert np.max(np.abs(y_c - y_np)) <= steps_bound(ka.P, ka.LP, ka.G, ka.EX, ka.nf, SV, dt, n, y0, y_np)
     assert np.max(np.abs(y_np - y0)) > 1e-6                   # it moved
     out_args = (ka.P, ka.LP, ka.G, ka.nf, True, SV[-1, 2], y_c, ka.PP, ka.Psi, ka.dpn, *ka.umax)
     o_c, o_np = K.reframe_outputs(*out_args), K.reframe_outputs_numpy(*out_args)
-    assert np.max(np.abs(o_c - o_np)) <= 1e-12 * np.max(np.abs(o_np))
+    # the same state y_c into both: the outputs' bound of tests/reframe_bounds.py (solve, point accelerations)
+    assert np.max(np.abs(o_c - o_np)) <= outputs_bound(ka.P, ka.LP, ka.G, ka.nf, SV[-1, 2], y_c, ka.PP, ka.Psi,
+                                                       ka.dpn, o_np)
 
 
 def test_exponential_coefficients_against_eigen_decomposition():
@@ -224,39 +230,51 @@ def test_exponential_coefficients_against_eigen_decomposition():
     z^i / i!) / z^k (direct formula: |h lambda| >= 0.5 here), for a damped and an undamped mode at
     h omega = 0.5, 5 and 20; and the nilpotent limit k = c = 0 (L = [[0, 1], [0, 0]]: phi_k(hL) =
     I/k! + hL/(k+1)!, the RK4 weights on q plus the exact drift)."""
-    from math import factorial
+    import mpmath
+    from test_native_reframe_kernels import _exponential_coefficients_mp
 
     def phi(k, z):
-        return (np.exp(z) - sum(z**i / factorial(i) for i in range(k))) / z**k
+        return (mpmath.exp(z) - sum(z**i / mpmath.factorial(i) for i in range(k))) / z**k
 
     for zeta in (0.0, 0.05):
         w = 2.0e3
         kk, cc = w**2, 2 * zeta * w
-        L = np.array([[0.0, 1.0], [-kk, -cc]])
-        lam, V = np.linalg.eig(L)
-        Vi = np.linalg.inv(V)
         for hw in (0.5, 5.0, 20.0):
             h = hw / w
+            with mpmath.workdps(40):       # the eigen-decomposition reference at 40 digits: its error is negligible
+                lam = [(-cc + r) / 2 for r in (mpmath.sqrt(mpmath.mpc(cc * cc - 4 * kk)),
+                                                -mpmath.sqrt(mpmath.mpc(cc * cc - 4 * kk)))]
+                V = mpmath.matrix([[1, 1], lam])
+                Vi = mpmath.inverse(V)
 
-            def f(g, x):
-                return (V @ np.diag(g(x * lam)) @ Vi).real
+                def f(g, x):
+                    return V * mpmath.diag([g(x * lam[0]), g(x * lam[1])]) * Vi
 
-            want = [f(np.exp, h), f(np.exp, h / 2), h / 2 * f(lambda z: phi(1, z), h / 2),
-                    h * (f(lambda z: phi(1, z), h) - 3 * f(lambda z: phi(2, z), h) + 4 * f(lambda z: phi(3, z), h)),
-                    h * (2 * f(lambda z: phi(2, z), h) - 4 * f(lambda z: phi(3, z), h)),
-                    h * (4 * f(lambda z: phi(3, z), h) - f(lambda z: phi(2, z), h))]
+                p1, p2, p3 = (f(lambda z, k=k: phi(k, z), h) for k in (1, 2, 3))
+                want = [f(mpmath.exp, h), f(mpmath.exp, h / 2), h / 2 * f(lambda z: phi(1, z), h / 2),
+                        h * (p1 - 3 * p2 + 4 * p3), h * (2 * p2 - 4 * p3), h * (4 * p3 - p2)]
+                want = [np.array([[float(mpmath.re(M[i, j])) for j in range(2)] for i in range(2)]) for M in want]
             got = exponential_coefficients([kk], [cc], h)[0]
+            # the double port's error, per entry in the balanced coordinates (omega q, p): expm_error_bound of the
+            # two augmented 8x8 exponentials carried through the combinations, + the scalings and the reference's
+            # and the combination's few roundings (tests/test_native_reframe_kernels._exponential_coefficients_mp)
+            _, _, bound = _exponential_coefficients_mp(np.array([kk]), np.array([cc]), h)
+            unbalance = np.array([[1.0, 1.0 / w], [w, 1.0]])     # (omega q, p) -> (q, p): T^-1 X T, T = diag(w, 1)
             for m in range(6):
-                scale = np.array([[1.0, 1.0 / w], [w, 1.0]]) * np.max(np.abs(want[m]) * np.array([[1, w], [1 / w, 1]]))
-                assert np.all(np.abs(got[m] - want[m]) <= 1e-11 * scale), (zeta, hw, m)
+                # + the 40-digit reference rounded to double: u |want|
+                allowed = bound[0, m] * unbalance + U * np.abs(want[m])
+                assert np.all(np.abs(got[m] - want[m]) <= allowed), (zeta, hw, m)
     h = 1e-3
     N = np.array([[0.0, 1.0], [0.0, 0.0]])
     X = exponential_coefficients([0.0], [0.0], h)[0]
     I2 = np.eye(2)
     expect = [I2 + h * N, I2 + h / 2 * N, h / 2 * (I2 + h / 4 * N), h / 6 * I2 + h * h * (1 / 2 - 3 / 6 + 4 / 24) * N,
               h / 3 * I2 + h * h * (2 / 6 - 4 / 24) * N, h / 6 * I2 + h * h * (4 / 24 - 1 / 6) * N]
+    # the port's bound at k = c = 0 (_exponential_coefficients_mp, unbalanced with s = 1) + the few roundings of
+    # ``expect`` (<= 4 terms: gamma_4 of their sizes, each <= |h| <= 2 max |expect|)
+    _, _, bound = _exponential_coefficients_mp(np.zeros(1), np.zeros(1), h)
     for m in range(6):
-        np.testing.assert_allclose(X[m], expect[m], rtol=0, atol=1e-15)
+        assert np.all(np.abs(X[m] - expect[m]) <= bound[0, m] + gamma(4) * 2 * np.max(np.abs(expect[m]))), m
 
 
 # --------------------------------------------------------------------------- geometric stiffness hook
@@ -295,7 +313,9 @@ def test_geometric_stiffness_shifts_the_spinning_frequency(plate):
     s_none = ReframeIntegrator(plate, one, scheme="exponential").advance_steps(s0, 1e-3, 20)
     zero_G = ReframeIntegrator(plate, one, scheme="exponential", geometric_stiffness=np.zeros((3, 3, 1, 1)))
     s_zero = zero_G.advance_steps(s0, 1e-3, 20)
-    assert np.max(np.abs(s_none.eta - s_zero.eta)) <= 1e-15 * np.max(np.abs(s_none.eta))
+    # identity: with G = 0 the geometric terms add +-0.0 to each sum, which changes no bit; the rest is the same
+    # operations in the same order
+    assert np.array_equal(s_none.eta, s_zero.eta)
 
 
 @pytest.mark.parametrize("G, scheme, fragment", [
