@@ -47,8 +47,10 @@ def test_exact_update_matches_single_mode_step_response():
         for _ in range(7):
             state = dyn.step(state, h, force, ZERO, BaseMotion())
         eta, eta_dot = analytic(state.t)
-        assert state.eta[0] == pytest.approx(eta, rel=1e-10, abs=1e-12 * abs(f) / w**2)
-        assert state.eta_dot[0] == pytest.approx(eta_dot, rel=1e-9, abs=1e-12 * abs(f) / w)
+        # against the analytic response (an independent reference, relative tolerances >= 1e-10); no absolute
+        # floor: at these 7 h the response is away from its zeros (|eta| >= 0.15 f / w^2, |eta'| >= 0.03 f / w)
+        assert state.eta[0] == pytest.approx(eta, rel=1e-10, abs=0)
+        assert state.eta_dot[0] == pytest.approx(eta_dot, rel=1e-9, abs=0)
 
 
 def test_rk4_converges_at_fourth_order_to_the_exact_update():
