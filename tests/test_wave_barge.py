@@ -17,12 +17,14 @@ import pytest
 pytest.importorskip("capytaine")
 pytest.importorskip("meshio")
 
+from error_bounds import gamma                                                          # noqa: E402
 from test_wave_bem_cosim import HEIGHT, STEP, T_END                                  # noqa: E402
 
 from flexfmu.body.build import build_body                                               # noqa: E402
 from flexfmu.errors import ParameterError                                               # noqa: E402
 from flexfmu.wec import bem                                                             # noqa: E402
-from flexfmu.wec.barge import BargeInLoop, BargeParameters, build_barge, split_added_mass  # noqa: E402
+from flexfmu.wec.barge import (BargeInLoop, BargeParameters, barge_structure, build_barge,  # noqa: E402
+                               split_added_mass)
 from flexfmu.wec.components import bem_added_mass_inf, bem_database                     # noqa: E402
 from flexfmu.wec.hydrostatics import INPUT_NAMES as HYDRO_INPUTS                        # noqa: E402
 from flexfmu.wec.hydrostatics import HydrostaticsConfig, HydrostaticsSimulator          # noqa: E402
@@ -70,12 +72,31 @@ def test_added_mass_is_a_point_mass_the_body_carries(bodies, ds):
     """The body's share of A_inf at O: the body's mass, centre of mass and inertia are the slab's plus a point
     mass A_33 at O plus the rotational block (parallel axes, closed form)."""
     A_body, A_lag = split_added_mass(bem_added_mass_inf(ds))
-    np.testing.assert_allclose(A_body + A_lag, bem_added_mass_inf(ds), rtol=0, atol=1e-12)
+    # A_inf is exactly symmetric (0.5 (A + A^T)), so split's symmetrisation returns it; A_body's entries are copies
+    # and A_lag = A - A_body exact where A_body is 0 or the copy; the translational diagonal A_ii - A_33 then + A_33:
+    # 2 roundings of terms |A_ii| + |A_33|
+    A = bem_added_mass_inf(ds)
+    assert np.all(np.abs(A_body + A_lag - A) <= gamma(2) * (np.abs(A) + np.abs(A_body)))
     body, box = bodies["stiff"], slab_rigid_box(STIFF)
     m_s, m_a = box.rho * box.length * box.beam * box.draft, A_body[2, 2]
     assert body.mass == pytest.approx(m_s + m_a, rel=1e-10)
     c = np.array([0.0, 0.0, m_s * box.z_G / (m_s + m_a)])
-    np.testing.assert_allclose(body.center_of_mass, c, rtol=0, atol=1e-12)
+    # c = first moment / mass from t^T M r (rigid fields; M the slab's consistent mass, |M| summing to rho = 10x M
+    # (quadratic elements), plus D^T A_body D at the hydro patch).  Terms: the slab's <= rho m_s max|x|, the added
+    # mass's |D t|^T |A_body| |D| |x|; roundings generously over-counted as 2 n_dof + 300 (the element quadrature and
+    # assembly, the patch fit D, the products M B (row) and B^T (M B) (n_dof), the division), the mass's the same
+    with tempfile.TemporaryDirectory() as tmp:
+        Ms = barge_structure(STIFF, tmp).M
+    rho_M = abs(Ms).sum() / Ms.sum()
+    nodes = np.asarray(body.arrays["nodes"], float)
+    hydro = next(i for i in body.interfaces if i.name == "hydro")
+    dpn = body.dofs_per_node
+    x_fit = np.abs(nodes[hydro.dofs // dpn]).max(axis=1)                            # |x| at the fitted DOFs
+    D = np.abs(hydro.D[:6])
+    S_a = (D @ np.ones(hydro.dofs.size)) @ np.abs(A_body) @ (D @ x_fit)
+    S = rho_M * m_s * np.abs(nodes).max() + S_a
+    bound = 2 * gamma(2 * Ms.shape[0] + 300) * S / body.mass
+    assert np.all(np.abs(body.center_of_mass - c) <= bound + gamma(4) * np.abs(c))   # c's own 3 roundings
     # about the common centre of mass: the slab's inertia about G and the point mass's, both moved there
     J_slab = m_s * np.diag([box.r_xx ** 2, box.r_yy ** 2, box.r_zz ** 2])
     arm_s, arm_a = np.array([0, 0, box.z_G]) - c, -c
@@ -108,7 +129,10 @@ def test_hydrostatics_applies_the_lagged_rest_of_the_added_mass(ds):
     split.set_inputs(**inputs)
     f0, f1 = plain.outputs(), split.outputs()
     got = np.array([f1[f"{q}_{a}"] - f0[f"{q}_{a}"] for q in "FM" for a in AX])
-    np.testing.assert_allclose(got, -A_lag @ acc, rtol=1e-12, atol=1e-12)
+    # f1 = f0 - A_lag acc on the same f0 bits (same code, same inputs), then f1 - f0: the 6-term product (gamma(6)),
+    # the subtraction from f0 and back (2 roundings) of terms |f0| + |A_lag||acc|
+    terms = np.array([abs(f0[f"{q}_{a}"]) for q in "FM" for a in AX]) + np.abs(A_lag) @ np.abs(acc)
+    assert np.all(np.abs(got + A_lag @ acc) <= gamma(8) * terms + gamma(6) * np.abs(A_lag) @ np.abs(acc))
     with pytest.raises(ParameterError, match="added_mass.*platform.*point"):
         HydrostaticsSimulator(HydrostaticsConfig(added_mass="hull"))
 
