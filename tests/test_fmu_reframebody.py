@@ -33,7 +33,9 @@ def test_paper_plate_through_fmpy_equals_library(body, scheme):
              "out_pos_z", "out_acc_x", "out_acc_y", "out_acc_z", "q_w", "q_x", "q_y", "q_z")
     lib = np.concatenate([res.omega[-1], res.com_velocity[-1], res.point_position[-1, 0],
                           res.point_acceleration[-1, 0], res.quaternion[-1]])
-    np.testing.assert_allclose(inst.get(*names), lib, rtol=1e-12, atol=1e-12 * np.abs(lib).max())
+    # identity: the Python FMU advances the library's ReframeIntegrator (the same model, modal_basis and kernels,
+    # in this process) by the same 0.1 ms steps under a constant load: the same operations in the same order
+    assert np.array_equal(inst.get(*names), lib)
 
 
 def test_constant_force_gives_newtons_com_velocity(body):

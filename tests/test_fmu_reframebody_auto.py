@@ -96,7 +96,9 @@ def test_communication_step_beyond_the_rk4_limit_is_substepped_and_logged(body):
     lib = np.concatenate([res.omega[-1], res.point_position[-1, 0], res.point_acceleration[-1, 0]])
     fmu = inst.get("omega_1", "omega_2", "omega_3", "out_pos_x", "out_pos_y", "out_pos_z", "out_acc_x", "out_acc_y",
                    "out_acc_z")
-    np.testing.assert_allclose(fmu, lib, rtol=1e-11, atol=1e-11 * np.abs(lib).max())
+    # identity: the Python FMU advances the library's ReframeIntegrator (the same model, modal_basis and kernels,
+    # in this process) by the same steps 1e-2 / 33 under a constant load: the same operations in the same order
+    assert np.array_equal(fmu, lib)
 
 
 def test_exponential_scheme_through_the_fmu(body):
@@ -125,7 +127,8 @@ def test_exponential_scheme_through_the_fmu(body):
         return np.concatenate([r.omega[-1], r.point_position[-1, 0], r.com_velocity[-1]])
 
     same = library("exponential", 1e-2)
-    np.testing.assert_allclose(fmu, same, rtol=1e-11, atol=1e-11 * np.abs(same).max())
+    # identity: as above, the same integrator by the same 10 ms steps (one internal step each)
+    assert np.array_equal(fmu, same)
     fine = library("consistent", 1e-5)
     err = np.max(np.abs(fmu - fine)) / np.abs(fine).max()
     print(f"\nexponential FMU (10 ms, 1 internal step) vs consistent dt = 1e-5 s: relative error {err:.2g}")
