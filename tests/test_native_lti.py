@@ -11,6 +11,7 @@ import pytest
 import scipy.linalg as sla
 
 from conftest import straight_rod
+from error_bounds import expm_error_bound, gamma
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.native import lti
 from flexfmu.native.compiler import CompilerError
@@ -227,7 +228,9 @@ def test_ffrbeam_random_held_base_motion_matches_the_simulator(stiffening, corre
     assert (sim.static_correction is not None) == (correction == "on")
     model = lti.LtiModel.from_ffrbeam(sim)
     assert model.np == (10 if stiffening else 7)
-    assert all(v < 1e-12 for v in model.fit_error.values()), model.fit_error
+    # the extraction's own acceptance (lti.FIT_TOLERANCE, the library's contract); what the model gives is checked
+    # end to end below
+    assert all(v <= lti.FIT_TOLERANCE for v in model.fit_error.values()), model.fit_error
     mine, ref, native = _random_run(sim, model, rng)
     err = _relative_errors(mine, ref, _ffr_groups())
     worst = int(np.argmax(err))
@@ -292,7 +295,9 @@ def test_clamped_body_matches_its_simulator(make, rng):
     sim = FlexBodySimulator(body)
     model = lti.LtiModel.from_clamped_body(sim)
     assert model.param_names[0] == "damping_ratio" and model.p_start[0] == pytest.approx(body.damping_ratio)
-    assert all(v < 1e-12 for v in model.fit_error.values()), model.fit_error
+    # the extraction's own acceptance (lti.FIT_TOLERANCE, the library's contract); what the model gives is checked
+    # end to end below
+    assert all(v <= lti.FIT_TOLERANCE for v in model.fit_error.values()), model.fit_error
     mine, ref, native = _random_run(sim, model, rng, damping=(0.1, 0.0))
     groups = [k // 3 for k in range(model.ny)]
     err = _relative_errors(mine, ref, groups)
@@ -394,7 +399,11 @@ def test_state_overflow_is_reported_and_leaves_the_state():
     status = lib.ffx_lti_steps(ctypes.byref(kernel._maps), lti._ptr(p), 0.3, 3, lti._ptr(x), lti._ptr(u),
                                lti._ptr(x))
     assert status == lti.NONFINITE and x[0] == 1e308  # the third step overflows: none is kept
-    assert kernel.step(np.array([1.0]), np.array([2.0]), np.zeros(0), 0.25)[0] == pytest.approx(1.5, rel=1e-15)
+    # 1 + 0.25 * 2 by the exact ZOH: expm of W = 0.25 [[0, 1], [0, 0]] within expm_error_bound(W) (2-norm) times
+    # |x| + |u| = 3, then Ad x + Bd u: gamma_2 of its terms (<= 1.5)
+    W = 0.25 * np.array([[0.0, 1.0], [0.0, 0.0]])
+    x1 = kernel.step(np.array([1.0]), np.array([2.0]), np.zeros(0), 0.25)[0]
+    assert abs(x1 - 1.5) <= 3 * expm_error_bound(W) + gamma(2) * 1.5
     assert kernel.outputs(np.array([3.0]), np.array([0.0]), np.zeros(0)).tolist() == [12.0]
     with pytest.raises(NonFiniteError):
         kernel.outputs(np.array([1e200]), np.array([0.0]), np.zeros(0))
@@ -432,4 +441,15 @@ def test_numpy_evaluation_equals_the_kernel(ffr_model):
     for _ in range(3):
         x, u = rng.standard_normal(ffr_model.nx) * 1e-3, rng.standard_normal(ffr_model.nu)
         p = np.r_[0.05, rng.standard_normal(6) * 3]
-        assert _rel(kernel.outputs(x, u, p), ffr_model.outputs(x, u, p)) <= 1e-14
+        # C vs numpy, per output: each within gamma_ops of the sum of its terms' sizes (the maps' monomial sums of
+        # nmono terms, then the inner products over x and u, y0, the quadratic terms: ops = nmono + nx + nu +
+        # nquad + 3 rounds the longest chain) [ASNA 3.5]
+        m = ffr_model
+        mono = np.abs(lti.monomials(p))
+        quad = np.zeros(m.ny)
+        z = np.abs(np.concatenate([x, u, lti.monomials(p)]))
+        np.add.at(quad, m.quad_row, np.abs(m.quad_value) * z[m.quad_i] * z[m.quad_j])
+        terms = (np.tensordot(mono, np.abs(m.Cx), axes=1) @ np.abs(x) + np.tensordot(mono, np.abs(m.Cu), axes=1)
+                 @ np.abs(u) + np.tensordot(mono, np.abs(m.y0), axes=1) + quad)
+        bound = 2 * gamma(m.nmono + m.nx + m.nu + len(m.quad_value) + 3) * terms
+        assert np.all(np.abs(kernel.outputs(x, u, p) - m.outputs(x, u, p)) <= bound)
