@@ -49,13 +49,15 @@ def test_power_matrix_on_dask_equals_serial_and_leaves_steep_cells_empty(tmp_pat
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_cli_power_matrix_serial_and_bad_input(tmp_path, capsys):
+def test_cli_power_matrix_serial_and_bad_input(tmp_path, capsys, monkeypatch):
+    from flexfmu.core import progress
+    monkeypatch.setattr(progress, "DEFAULT_DELAY_S", 0.0)      # a short sweep shows its progress too
     out, png = tmp_path / "m.csv", tmp_path / "m.png"
     status = cli.main(["wec", "power-matrix", str(SYSTEM), "--hs", "0.05", "--tp", "1.4,2.0", "--seeds", "1",
                        "--t-end", "0.1", "--serial", "--out", str(out), "--plot", str(png)])
     captured = capsys.readouterr()
     assert status == 0, captured.err
-    assert "2/2 co-simulations" in captured.err and out.is_file() and png.is_file()
+    assert "2 of 2 co-simulations" in captured.err and out.is_file() and png.is_file()
     assert (tmp_path / "m_runs.csv").is_file()
     for argv, name in [(["--hs", "0.05,x"], "hs"), (["--tp", "-1"], "tp"), (["--boundary", "FFF"], "boundary"),
                        (["--seeds", "0"], "seeds")]:
