@@ -24,7 +24,9 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 from scipy.special import jv
 
+from error_bounds import gamma
 from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.beam_element import element_dof_rotation
 from flexfmu.ffr.dynamics import BaseMotion, FFRBeamDynamics
 from flexfmu.ffr.geometric_stiffness import inertial_geometric_stiffness, local_geometric_stiffness
 from flexfmu.linalg.modal import solve_modes
@@ -50,6 +52,25 @@ def _ritz_rotating_beam(Omega, in_plane=True, n=10):
     return np.sqrt(sla.eigh(A, M, eigvals_only=True))
 
 
+def _slope_bounds(Le, ratio):
+    """s (12,): bounds on |v'|, |w'|, |theta_x'| per DOF of the element-axes shape rows over the element:
+    Hermite displacement functions |6 xi (1 - xi)| / Le <= 1.5 / Le, rotation functions |1 - 4 xi + 3 xi^2|,
+    |-2 xi + 3 xi^2| <= 1, torsion |1 / Le| (times sqrt(Ip/A): its term carries the ratio); axial DOFs 0.
+    So |int N v'_i v'_j dx| terms are <= max|N| Le s_i s_j."""
+    s = np.zeros(12)
+    s[[1, 2, 7, 8]] = 1.5 / Le
+    s[[4, 5, 10, 11]] = 1.0
+    s[[3, 9]] = np.sqrt(ratio) / Le
+    return s
+
+
+# The Gauss-quadrature element matrix's rounding, relative to max|N| Le s_i s_j (generously over-counted): each
+# slope value d(xi_g) of the shape polynomial (<= 5 roundings on terms <= 8 s_i), the rounded xi_g = (x_g + 1) / 2
+# and a leggauss node error taken as <= 8 ulp (|d'| <= 4 s_i per unit xi): <= (40 + 4 + 32) u s_i, twice for
+# the product; the outer product, 0.5 w_g Le and the weight error (8 ulp), N_g x and the 4-point sum: ~20 more.
+GAUSS_MATRIX_ROUNDINGS = 200
+
+
 def _scene(points, clamps, point_masses=()):
     return scene_from_dict({"points": points, "section": dict(spinup.SECTION), "material": dict(spinup.MATERIAL),
                             "clamps": list(clamps), "point_masses": list(point_masses)})
@@ -68,7 +89,12 @@ def test_element_matrix_for_constant_axial_force_is_the_textbook_one():
     expected[np.ix_(xy, xy)] = bend
     expected[np.ix_(xz, xz)] = bend * np.outer(sign, sign)
     expected[np.ix_([3, 9], [3, 9])] = N * ratio / Le * np.array([[1, -1], [-1, 1]])
-    np.testing.assert_allclose(G, expected, rtol=1e-12, atol=1e-12 * abs(c) * Le**2)
+    # Gauss quadrature is exact for this degree-4 integrand: the difference is rounding, on both sides within
+    # gamma(200) of the term sizes |N| Le s_i s_j (the rule above; expected's c * k * Le^m is <= 4 roundings of
+    # entries that are themselves <= |N| Le s_i s_j: covered by the over-count)
+    s = _slope_bounds(Le, ratio)
+    bound = gamma(GAUSS_MATRIX_ROUNDINGS) * abs(N) * Le * np.outer(s, s)
+    assert np.all(np.abs(G - expected) <= bound)
 
 
 def test_prestress_of_a_spinning_beam_clamped_free_and_on_a_heavy_hub():
@@ -124,9 +150,28 @@ def test_relieved_prestress_of_a_free_bent_rod():
     X, a0 = np.array([[-2.0, 0.3, 0.1], [0.5, -1.0, 0.2], [0.0, -0.4, -3.0]]), np.array([0.2, -9.81, 1.0])
     Ga, Gb = a.combine(X, a0).toarray(), b.combine(X, a0).toarray()
     np.testing.assert_allclose(Ga, Gb, atol=1e-9 * np.max(np.abs(Ga)))
-    # the geometric stiffness does no work on a rigid translation (it acts on derivatives of the motion only)
+    # the geometric stiffness does no work on a rigid translation (it acts on derivatives of the motion only):
+    # in exact arithmetic every Gauss term N_g C_bar U_g C_bar^T annihilates it whatever N_g and C, so what is
+    # left is the rounding of forming Ga and of the product, bounded by gamma(k) times the terms' sizes
+    # sum_p |c_p| max|N_p| Le |C_bar| s s^T |C_bar|^T |t| assembled.  max|N_p| on an element: the end values
+    # plus |N''| / 8, N'' = L (p1 - p2) with p the axial load density, |p1 - p2| <= rho A L for an X_ab pattern
+    # (the relief's a_R is uniform and alpha_R x dx is normal to the element), 0 for an a0 pattern.
+    # k: the Gauss matrix rule above (200) + C_bar U C_bar^T (24) + the 12-pattern combine, the symmetrisation
+    # and the <= 18-term row product (32): generously gamma(400).
     translation = np.tile([1.0, 0.0, 0.0, 0.0, 0.0, 0.0], model.mesh.n_nodes)
-    assert np.max(np.abs(Ga @ translation)) < 1e-12 * np.max(np.abs(Ga))
+    mesh, rhoA = model.mesh, scene.material.rho * scene.section.A
+    Le = mesh.element_length
+    coef = np.abs(np.concatenate([X.ravel(), a0]))
+    curvature = np.where(np.arange(12) < 9, 1.0, 0.0)[:, None] * rhoA * Le**2 / 8
+    n_max = coef @ (np.abs(a.axial_force).max(axis=2) + curvature)              # (n_el,)
+    Cbar = np.abs(element_dof_rotation(mesh.element_rotation))
+    dofs = (6 * mesh.elements[:, :, None] + np.arange(6)).reshape(-1, 12)
+    terms = np.zeros(model.mesh.n_nodes * 6)
+    ratio = scene.section.Ip / scene.section.A
+    for e in range(len(Le)):
+        cs = Cbar[e] @ _slope_bounds(Le[e], ratio)
+        terms[dofs[e]] += n_max[e] * Le[e] * cs * (cs @ np.abs(translation[dofs[e]]))
+    assert np.all(np.abs(Ga @ translation) <= gamma(400) * terms)
 
 
 def test_rotating_cantilever_in_plane_frequency_and_flap_southwell_coefficient():
