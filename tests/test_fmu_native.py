@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import math
 import re
 import shutil
 import struct
@@ -883,7 +884,8 @@ print("RESULTS " + json.dumps([[repr(x) for x in r] for r in rows]))
 @pytest.mark.host
 def test_libcosim_runs_native_and_python_fmus_side_by_side(native, fmus, tmp_path):
     """One libcosim execution (a fresh Python process) with the native FFRBeam (XFX set-up) and the Python FFRBeam,
-    the same sinusoidal load on both: each equals fmpy (1e-12), and native equals Python (1e-10)."""
+    the same sinusoidal load on both: native equals fmpy given the same calls (identical), and native equals Python
+    (1e-10)."""
     pytest.importorskip("libcosimpy", reason="libcosimpy (DNV's libcosim) is not installed")
     import json
     start = {"boundary": "XFX", "damping_ratio": 0.02, "load_s": 0.3}
@@ -911,13 +913,17 @@ def test_libcosim_runs_native_and_python_fmus_side_by_side(native, fmus, tmp_pat
     inst = Instance(native["XFX"], "fmpy", **start).initialize()
     try:
         for k in range(steps):
+            # the same calls libcosim makes: the driver's math.sin of the same double t (numpy's sin may differ from
+            # libm's in the last bit), t = ns / 1e9 and the step (t_{k+1} - t_k) as libcosim's to_double_duration
             t = k * step_ns / 1e9
-            inst.set(F_z=1.5 * np.sin(60.0 * t))
+            inst.set(F_z=1.5 * math.sin(60.0 * t))
             inst.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=(k + 1) * step_ns / 1e9 - t)
             reference.append(inst.get(*outputs))
     finally:
         inst.free()
     reference = np.array(reference)
-    scale = np.abs(reference).max(axis=0)
-    assert np.max(np.abs(ours - reference) / scale) <= 1e-12, message
+    # identity: the same FMU binary on the same machine given bit-identical start values, inputs, times and steps
+    # in the same order (libcosim's override manipulator sets F_z before each doStep, as here) does the same
+    # operations and returns the same bits
+    assert np.array_equal(ours, reference), (np.max(np.abs(ours - reference)), message)
     assert np.max(np.abs(ours - theirs) / np.abs(theirs).max(axis=0)) <= RTOL, message
