@@ -19,8 +19,8 @@ from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.plate import paper_plate
 from flexfmu.reframe.integrator import SCHEMES, PointLoad, ReframeIntegrator, exponential_coefficients, half_sine_pulse
-from error_bounds import U, gamma
-from reframe_bounds import outputs_bound, steps_bound
+from error_bounds import U, expm_error_bound, gamma, implementations_bound
+from reframe_bounds import mass_matrix, outputs_bound, steps_bound
 from test_reframe import invariants, mass_properties
 
 OMEGA0 = np.array([5.0, 2.0, 8.0])
@@ -45,6 +45,17 @@ def _single_mode(basis, j):
     return dataclasses.replace(basis, shapes=basis.shapes[:, sel], frequencies_hz=basis.frequencies_hz[[j]],
                                stiffness=basis.stiffness[sel], damping=basis.damping[sel],
                                damping_ratio=basis.damping_ratio[[j]])
+
+
+def _balanced_phi_matrix(k, c, h):
+    """The 8x8 matrix whose exponential schemes.exponential_coefficients_scipy (and its C port) take for one mode:
+    [[h L^, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], 0] with L^ = [[0, omega], [-k / omega, -c]] (omega = sqrt(k))."""
+    s = math.sqrt(k) if k > 0 else 1.0
+    W = np.zeros((8, 8))
+    W[0:2, 0:2] = h * np.array([[0.0, s], [-k / s, -c]])
+    for blk in range(3):
+        W[2 * blk:2 * blk + 2, 2 * blk + 2:2 * blk + 4] = np.eye(2)
+    return W
 
 
 def test_exponential_is_a_scheme():
@@ -76,18 +87,61 @@ def test_single_free_mode_matches_the_analytic_damped_oscillator(plate):
         return qs + np.exp(-zeta * w * t) * (x0 * np.cos(wd * t) + (v0 + zeta * w * x0) / wd * np.sin(wd * t))
 
     assert abs(qs) > 0.1 * abs(q0)                             # the load matters
+    k, c = float(one.stiffness[6]), float(one.damping[6])
+    amp = abs(q0 - qs) + abs((v0 + zeta * w * (q0 - qs)) / wd)
+    # balanced coordinates (omega q, p): the damped mode's map has log-norm <= 0 (||e^{hL^}||_2 <= 1), so the
+    # state stays within |z0 - z_s| of the static z_s = (omega qs, 0)
+    z_max = w * abs(qs) + math.hypot(w * (q0 - qs), v0)
     for dtw in (0.5, 5.0, 20.0):
         dt = dtw / w
         integ = ReframeIntegrator(plate, one, scheme="exponential", deformed_load_arm=False)
         integ.set_initial(q0=[q0], qd0=[v0])
         n = int(round(0.2 / dt))
-        r = integ.run(n * dt, dt, [PointLoad(b, F * e), PointLoad(a, -F * e)], every=max(1, n // 50))
-        ref = analytic(r.t)
-        err = np.max(np.abs(r.q[:, 0] - ref)) / np.max(np.abs(ref))
-        print(f"\nsingle mode {one.frequencies_hz[0]:.1f} Hz, dt omega = {dtw}: max |q - q_analytic| / max |q| = "
-              f"{err:.2g}, max |omega| = {np.max(np.abs(r.omega)):.1g} rad/s")
-        assert err <= 1e-12
-        assert np.max(np.abs(r.omega)) <= 1e-12
+        every = max(1, n // 50)
+        loads = [PointLoad(b, F * e), PointLoad(a, -F * e)]
+        r = integ.run(n * dt, dt, loads, every=every)
+        # the state of record i is after min(i every, n) steps of dt: its exact time is steps * dt (one rounding),
+        # not the integrator's t accumulated by n additions (up to n u t_end off, omega n u t_end in the phase)
+        t_exact = np.minimum(np.arange(len(r.t)) * every, n) * dt
+        ref = analytic(t_exact)
+        err = np.max(np.abs(r.q[:, 0] - ref))
+        t_end = n * dt
+        ka = integ.kernel_arguments(integ.prepare_loads(loads), dt, np.array([], dtype=np.int64))
+        LP = ka.LP.reshape(2, -1)
+        arms = np.linalg.norm(LP[:, 2:5], axis=1)
+        phis = np.abs(LP[:, 5:8]).sum(axis=1)
+        # (i) the exponential coefficients: per step the balanced augmented expm (schemes.exponential_coefficients,
+        # frac 1 and 1/2) errs by <= eb in the 2-norm; E1 carries it on |z| <= z_max, B1, B2 (twice), B4 =
+        # h (phi1 - 3 phi2 + 4 phi3), h (2 phi2 - 4 phi3), h (4 phi3 - phi2) on Q: <= (8 + 12 + 5) h eb |Q|
+        eb = max(expm_error_bound(_balanced_phi_matrix(k, c, frac * dt)) for frac in (1.0, 0.5))
+        coef = n * eb * (z_max + 25 * dt * abs(Q))
+        # (ii) the step's rounding: <= 32 roundings (Q from two loads 6, the phi combinations 5, the 2x2 products
+        # 2, four maps summed 3, the scaling back 1, the mass solve for qd 2, ...) on terms <= 2 z_max (|E1| <= 1
+        # entrywise x 2) + 25 h |Q|; growth 1 (damped mode in its energy norm), n steps
+        rnd = implementations_bound(2 * z_max + 25 * dt * abs(Q), 32, 1.0, n)
+        # (iii) Q: the kernel's PhiT^T f per load vs the test's F e . (phi_b - phi_a), each within gamma_8 of the terms
+        # sum |Phi| |f|: a held-force difference moves q by <= 2 dQ / omega^2 (the step response's overshoot < 2)
+        dQ = 2 * gamma(8) * F * float(phis.sum())
+        # (iv) the reference: the phase and decay arguments (omega_d t, zeta omega t <= 2 omega t_end) carry <= 16
+        # roundings (omega from lam 3, omega_d 4, t 2, products 2, exp/sin/cos <= 4 ulp each [libm, SVML]);
+        # relative to the amplitude; qs = Q / w^2 and the sum: gamma_4 |qs|
+        ref_err = amp * gamma(16) * (1 + 2 * w * t_end) + gamma(4) * abs(qs)
+        bound = (coef + rnd) / w + 2 * dQ / w**2 + ref_err
+        # omega: no force (the pair sums to exactly 0); the moment of the computed pair is <= F (|d| gamma_6 +
+        # gamma_2 (|arm_a| + |arm_b|)) (e is d / |d| to rounding, the arms node - com rounded), its evaluation
+        # <= 2 gamma_8 F sum |arm|, accumulated over t_end into h; rigid velocities = M^-1 [p, h, p_q]: the
+        # coupling block M^-1[3:6, 6:] on |p_q| <= z_max and its inverse's error kappa gamma_7 ||M^-1||
+        M = mass_matrix(ka.P, 1, np.zeros(1))
+        Minv = np.linalg.inv(M)
+        dist = float(np.linalg.norm(plate.nodes[b] - plate.nodes[a]))
+        h_max = t_end * F * (dist * gamma(6) + gamma(2) * arms.sum() + 2 * gamma(8) * arms.sum())
+        w_bound = 2 * (np.linalg.norm(Minv, 2) * h_max + (np.linalg.norm(Minv[3:6, 6:], 2)
+                       + np.linalg.cond(M) * gamma(7) * np.linalg.norm(Minv, 2)) * z_max)
+        print(f"\nsingle mode {one.frequencies_hz[0]:.1f} Hz, dt omega = {dtw}: max |q - q_analytic| = {err:.2g} "
+              f"(bound {bound:.2g}, max |q| {np.max(np.abs(ref)):.2g}), max |omega| = {np.max(np.abs(r.omega)):.1g} "
+              f"rad/s (bound {w_bound:.2g})")
+        assert err <= bound
+        assert np.max(np.abs(r.omega)) <= w_bound
 
 
 # --------------------------------------------------------------------------- (a) no RK4 limit
