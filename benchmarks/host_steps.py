@@ -103,6 +103,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a fifth of the cycles (a smoke run)")
     parser.add_argument("--out", type=Path, help="also write the table as Markdown to this file")
+    parser.add_argument("--fmusim", type=Path, help="also the 60 s hammer record in this fmusim beside a no-op FMU "
+                                                    "(benchmarks/fmusim_hammer.py; build fmusim with "
+                                                    "benchmarks/build_fmusim.sh)")
     args = parser.parse_args(argv)
     from host_tools import compile_c_host
 
@@ -123,9 +126,20 @@ def main(argv=None) -> int:
     from flexfmu.studies.common import provenance
     header = (f"Made by `benchmarks/host_steps.py` from {provenance()} ({platform.machine()}, "
               f"{platform.platform()}, Python {platform.python_version()}).")
+    fmusim_text = ""
+    if args.fmusim:
+        proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fmusim_hammer.py"), "--fmusim",
+                               str(args.fmusim)], capture_output=True, text=True, timeout=7200)
+        fmusim_text = proc.stdout if proc.returncode == 0 else f"fmusim_hammer.py failed:\n{proc.stderr[-2000:]}"
+        print(fmusim_text)
     if args.out:
         args.out.write_text("\n".join(["# Step sizes a host passes", "", header, "", __doc__.split("\n\n", 2)[2].strip(),
-                                       "", *lines, ""]), encoding="utf-8")
+                                       "", *lines, ""]
+                                      + (["## The hammer record in fmusim", "",
+                                          "Printed by `benchmarks/fmusim_hammer.py` (fmusim built by "
+                                          "`benchmarks/build_fmusim.sh`), in the same run:", "", "```text",
+                                          fmusim_text.strip(), "```", ""] if fmusim_text else [])),
+                           encoding="utf-8")
     print(header)
     return 0
 
