@@ -7,8 +7,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from conftest import STEEL, straight_rod
+from error_bounds import U, gamma, implementations_bound
 from flexfmu.body.build import build_body
 from flexfmu.body.simulator import FlexBodyConfig, FlexBodySimulator, input_names, output_names, variable_info
 from flexfmu.errors import ParameterError
@@ -36,19 +39,28 @@ def test_base_acceleration_bends_a_cantilever_as_a_uniform_load():
     """Base accelerating at +a along y: the inertial load -rho A a gives w_tip = -q L^4 / (8 E I); the rod pushes
     the base with -m a (what the structure exerts on its clamps) and the moment -q L^2 / 2 about z."""
     L, d, a = 1.0, 0.01, 9.81
-    body = build_body(_rod(L, d, 6), interfaces=[{"name": "tip", "point": [L, 0, 0]}], clamp="root", f_max=100.0,
+    rod = _rod(L, d, 6)
+    body_nodes = rod.nodes.shape[0]
+    body = build_body(rod, interfaces=[{"name": "tip", "point": [L, 0, 0]}], clamp="root", f_max=100.0,
                       tolerance=1e-6)
     o = _settle(body, {"base_a_y": a})
     EI = STEEL["E"] * np.pi * d**4 / 64
     q = STEEL["rho"] * np.pi * d**2 / 4 * a
     print(f"\ntip {o['tip.pos_y']:.12g} vs {-q * L**4 / (8 * EI):.12g}; reaction F_y {o['reaction_F_y']:.12g} vs "
           f"{-body.mass * a:.12g}; M_z {o['reaction_M_z']:.12g} vs {-q * L**2 / 2:.12g}")
-    assert o["tip.pos_y"] == pytest.approx(-q * L**4 / (8 * EI), rel=1e-9)
-    assert o["tip.pos_x"] == pytest.approx(L, rel=1e-12)
-    assert o["reaction_F_y"] == pytest.approx(-body.mass * a, rel=1e-12)
+    w_tip = -q * L**4 / (8 * EI)
+    assert o["tip.pos_y"] == pytest.approx(w_tip, rel=1e-9)
+    # the axial displacement is zero analytically (a transverse load): held to the deflection's own analytic
+    # tolerance, 1e-9 of |w_tip| (no quick rounding bound: it passes through the modal truncation and the solve)
+    assert abs(o["tip.pos_x"] - L) <= 1e-9 * abs(w_tip)
+    # settled (e^{-zeta omega_1 t} ~ e^-300): the reaction is the total inertial load -m a exactly, so only
+    # rounding separates them: sums over the n_dof nodal/modal terms of size <= m |a| and the formulas' few
+    # operations, generously gamma(n_dof + 64) m |a|; F_x, F_z are zero in exact arithmetic, the same bound
+    n_dof = 6 * body_nodes
+    assert abs(o["reaction_F_y"] + body.mass * a) <= gamma(n_dof + 64) * body.mass * a
     assert o["reaction_M_z"] == pytest.approx(-q * L**2 / 2, rel=1e-9)
     assert abs(o["tip.acc_y"] - a) <= 1e-9 * a          # at rest on the base: the base's acceleration
-    assert abs(o["reaction_F_x"]) + abs(o["reaction_F_z"]) <= 1e-12 * body.mass * a
+    assert abs(o["reaction_F_x"]) + abs(o["reaction_F_z"]) <= 2 * gamma(n_dof + 64) * body.mass * a
 
 
 def test_spinning_bar_stretches_and_pulls_its_hub():
@@ -70,7 +82,12 @@ def test_spinning_bar_stretches_and_pulls_its_hub():
     print(f"\nstretch {o['tip.pos_x'] - L:.12g} vs {u_tip:.12g}; reaction F_x {o['reaction_F_x']:.12g} vs {pull:.12g} "
           f"(continuum), {pull_fe:.12g} (the interpolant of the exact u)")
     assert o["tip.pos_x"] - L == pytest.approx(u_tip, rel=1e-8)
-    assert o["reaction_F_x"] == pytest.approx(pull_fe, rel=1e-12)
+    # the rigid part rho A w^2 L^2 / 2 of the pull is a sum of positive terms (rounding gamma(n_dof + 64) of it,
+    # as above); the part carried by the stretch u, rho A w^2 int u, is held to the stretch's own analytic
+    # tolerance (1e-8 relative, the assertion above; no quick rounding bound through the modal solve)
+    n_dof = 6 * 17
+    pull_u = rhoA * w**2 * abs(np.sum(0.5 * (u[1:] + u[:-1]) * np.diff(x)))
+    assert abs(o["reaction_F_x"] - pull_fe) <= gamma(n_dof + 64) * abs(pull_fe) + 1e-8 * pull_u
     assert o["reaction_F_x"] == pytest.approx(pull, rel=(L / 16) ** 2 * k**2 / 6)   # twice the h^2 k^2 / 12 gap
     assert abs(o["tip.acc_x"] + w**2 * o["tip.pos_x"]) <= 1e-9 * w**2 * L      # centripetal, at rest in the frame
 
@@ -122,12 +139,31 @@ def test_matches_the_ffr_beam_code():
     difference is within that same size."""
     rotary = 0.008**2 / (8 * 0.14**2)                     # d^2 / (8 L^2), the shortest segment of the double L
     scene, dyn, body, modes = _ffr_pair(8)
-    assert np.allclose(body.natural_frequencies_hz, modes.frequencies_hz[:6], rtol=1e-12)
+    # two eigen-solves of the same pencil (K, M), each backward stable (scaled to unit diag M as solve_modes does:
+    # (K + dK, M + dM), ||dK|| <= gamma(10 n) ||K||, ||dM|| <= gamma(10 n) ||M||, 10 n over-counting the
+    # Cholesky, reduction and tridiagonal QR): Weyl for the definite pencil |dlambda| <= (||dK|| + lambda ||dM||)
+    # / lambda_min(M), twice (two solves), halved for f ~ sqrt(lambda), plus a few roundings of sqrt and 2 pi;
+    # ||.||_2 <= the 1-norm of these symmetric matrices
+    dm = 1.0 / np.sqrt(dyn.model.M_free.diagonal())
+    Ks, Ms = (sp.diags(dm) @ dyn.model.K_free @ sp.diags(dm)), (sp.diags(dm) @ dyn.model.M_free @ sp.diags(dm))
+    n = Ks.shape[0]
+    lam = (2 * np.pi * modes.frequencies_hz[:6]) ** 2
+    m_min = float(np.linalg.eigvalsh(Ms.toarray())[0])
+    rel = gamma(10 * n) * (spla.norm(Ks, 1) + lam * spla.norm(Ms, 1)) / (m_min * lam) + 8 * U
+    assert np.all(np.abs(body.natural_frequencies_hz - modes.frequencies_hz[:6]) <= rel * modes.frequencies_hz[:6])
     a0 = np.array([1.0, -2.0, 3.0])
     d = _compare(scene, dyn, body, {"base_a_x": 1.0, "base_a_y": -2.0, "base_a_z": 3.0, "tip.F_x": 0.5,
                                     "tip.M_y": 0.01}, BaseMotion(a0=a0))
     print(f"\nbase acceleration and tip load, 8 elements/segment: {d}")
-    assert d["tip_u"] < 1e-11 and d["sensor_a"] < 1e-12 and d["F"] < 1e-12
+    # two codes with the same M, K, modes over n = 400 steps: per step each within gamma(ops) of the terms, ops
+    # generously 4 (2 m + 15 inputs) + 64 (as the held-map test in test_performance_equivalence); the damped
+    # modal step map is a contraction in the energy norm (growth 1); converting the group's units to the energy
+    # norm and back costs omega_max / omega_min each way, which also over-counts the terms' size relative to
+    # the result (the modes' static responses scale as 1 / omega^2): relative (omega_max / omega_min)^2
+    w_ratio = float(modes.frequencies_hz[5] / modes.frequencies_hz[0])
+    bound = implementations_bound(w_ratio**2, 4 * (2 * 6 + 15) + 64, 1.0, 400)
+    print(f"rounding bound (relative) {bound:.1e}")
+    assert d["tip_u"] <= bound and d["sensor_a"] <= bound and d["F"] <= bound
     assert d["M"] < rotary
     spin = {"base_w_z": 30.0, "base_dw_x": 50.0, "base_dw_z": 100.0}
     base = BaseMotion(omega=np.array([0.0, 0.0, 30.0]), alpha=np.array([50.0, 0.0, 100.0]))
