@@ -130,7 +130,8 @@ def main(argv=None) -> int:
     if args.fmusim:
         proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "fmusim_hammer.py"), "--fmusim",
                                str(args.fmusim)], capture_output=True, text=True, timeout=7200)
-        fmusim_text = proc.stdout if proc.returncode == 0 else f"fmusim_hammer.py failed:\n{proc.stderr[-2000:]}"
+        fmusim_text = (proc.stdout if proc.returncode == 0 else
+                       f"fmusim_hammer.py failed (exit {proc.returncode}):\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
         print(fmusim_text)
     if args.out:
         args.out.write_text("\n".join(["# Step sizes a host passes", "", header, "", __doc__.split("\n\n", 2)[2].strip(),
