@@ -92,9 +92,17 @@ def test_csv_physics(csv_run, beam):
     col = {name: k for k, name in enumerate(header)}
     t = data[:, 0]
     get = lambda p, names="xyz": data[:, [col[f"{p}{c}"] for c in names]]   # noqa: E731
-    # identities at t = 0: the given omega0 (decimal integers, parsed exactly), the identity rotation's quaternion,
-    # node 0 itself (rotation I, no elastic displacement) and the frame origin at the mesh origin
-    np.testing.assert_array_equal(get("omega_", "123")[0], OMEGA0)
+    # omega at t = 0 is not the given omega0 itself: the state holds the rigid rates A6^-1 [v0; omega0] (A6 the
+    # basis' rigid transform, inverted in double) and the output maps them back with A6.  The product's rounding
+    # is <= gamma_6 |A6| |A6^-1| |x|; the computed inverse's error <= gamma_{6n} kappa(A6) |A6^-1| (n = 6, LU with
+    # partial pivoting, generous): together within gamma_64 kappa(A6) |A6| |A6^-1| |x|
+    A6 = modal_basis(beam, 2).rigid_transform
+    A6inv = np.linalg.inv(A6)
+    x = np.concatenate([np.zeros(3), OMEGA0])
+    bound = gamma(64) * np.linalg.cond(A6) * (np.abs(A6) @ (np.abs(A6inv) @ np.abs(x)))[3:]
+    assert np.all(np.abs(get("omega_", "123")[0] - OMEGA0) <= bound)
+    # identities at t = 0: the identity rotation's quaternion, node 0 itself (rotation I, no elastic
+    # displacement) and the frame origin at the mesh origin
     np.testing.assert_array_equal(get("q_", "wxyz")[0], [1, 0, 0, 0])
     # |q| = 1 to the rounding of n = 500 rotation updates (a product of 3x3 matrices and the update's own
     # orthogonality, <= gamma_16 each) and of the quaternion extraction (<= gamma_16): (n + 1) gamma_16

@@ -101,15 +101,37 @@ def test_lti_kernel_updates_its_maps_once_for_the_clock_steps(ffr_simulator):
 
 @pytest.mark.unit
 def test_exponential_scheme_keeps_one_coefficient_set_for_the_clock_steps():
-    from flexfmu.linalg.modal_basis import modal_basis
-    from flexfmu.reframe.integrator import ReframeIntegrator
-    from flexfmu.reframe.models import load_model
-    beam = load_model("beam:spatial_double_L", elements_per_segment=2)
-    integ = ReframeIntegrator(beam, modal_basis(beam, 4), scheme="exponential")
-    state = integ.initial_state()
-    for dt in clock_steps(50, step=1e-3):
-        state = integ.advance_steps(state, dt, 1)
-    assert len(integ._ex_cache) == 1
+    """The ReframeBody simulator asks its (shared) integrator for the coefficients of its own first step only."""
+    from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
+    sim = ReframeBodySimulator(ReframeBodyConfig(model="beam:spatial_double_L", n_flexible_modes=4))
+    cache = sim.integrator._ex_cache
+    before = set(cache)
+    for h in clock_steps(50, step=1e-3):
+        sim.step(h)
+    assert len(set(cache) - before) <= 1
+    from flexfmu.errors import ParameterError
+    with pytest.raises(ParameterError, match="coefficients_dt"):          # only a step's last-bit variants
+        sim.integrator.advance_steps(sim.state, 1e-3, 1, coefficients_dt=2e-3)
+
+
+@pytest.mark.unit
+def test_instances_do_not_share_their_step_history():
+    """Two simulators of one model (one shared dynamics and integrator): each takes its own first step as the
+    canonical one, so a run does not depend on what another instance stepped with before."""
+    from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
+    config = FFRBeamConfig(boundary="XFF", n_modes=6)
+    first = FFRBeamSimulator(config)
+    first.set_input_vector(_ffr_inputs(first))
+    first.step(STEP * (1 + 0.5 * STEP_RTOL))              # a step the next instance must not inherit
+    runs = []
+    for _ in range(2):
+        sim = FFRBeamSimulator(config)
+        sim.set_input_vector(_ffr_inputs(sim))
+        for _ in range(100):
+            sim.step(STEP)
+        runs.append(np.concatenate([sim.state.eta, sim.state.eta_dot]))
+    assert np.array_equal(runs[0], runs[1])
+    assert FFRBeamSimulator(config).dynamics is first.dynamics   # shared: the case this test is about
 
 
 # ---------------------------------------------------------------------------------------------- through FMUs

@@ -19,6 +19,11 @@ Where the cached coefficients feed a multi-stage step of the host's own length (
 scheme), the coefficients' error is |d EX / d dt| |dt - dtc| <= STEP_RTOL * dt * omega_max * |EX| per step,
 the same order.
 
+Which step stands for its variants is the first one seen, so it depends on what came before: the list lives
+with each simulator instance (an FMU instance), never with a model object that instances share (the FFR
+dynamics and the reframe integrator are cached per model), so a run never depends on another instance's steps
+and two instances given the same calls compute the same bits.
+
 The compiled kernels use the same tolerance (``FFX_STEP_RTOL`` in ``native/csrc/lti_kernels.h``;
 tests/test_step_size.py checks that the two agree).
 """

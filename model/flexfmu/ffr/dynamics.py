@@ -55,7 +55,6 @@ import scipy.sparse as sp
 
 from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
-from flexfmu.core.step_size import StepSizes
 from flexfmu.ffr.assembly import BeamModel
 from flexfmu.ffr.beam_element import local_shape_functions
 from flexfmu.errors import require
@@ -216,7 +215,6 @@ class FFRBeamDynamics:
             self.G_X_hat, self.G_a0_hat = inertial_geometric_stiffness(model).modal(Phi)
         self._cache = BoundedCache(MAP_MEMO_SIZE)
         self._fast_cache = BoundedCache(MAP_MEMO_SIZE)
-        self._steps = StepSizes()        # the step sizes of the caches' keys (flexfmu.core.step_size)
 
     def with_damping(self, damping_ratio: float) -> "FFRBeamDynamics":
         """This model with another modal damping ratio: a shallow copy sharing the model data, with its own map
@@ -227,7 +225,6 @@ class FFRBeamDynamics:
         other.damping = 2.0 * other.damping_ratio * self.omega_n
         other._cache = BoundedCache(MAP_MEMO_SIZE)
         other._fast_cache = BoundedCache(MAP_MEMO_SIZE)
-        other._steps = StepSizes()
         return other
 
     # ------------------------------------------------------------ equations of motion
@@ -277,7 +274,6 @@ class FFRBeamDynamics:
 
     # ------------------------------------------------------------ exact zero-order-hold step
     def _transition(self, h: float, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:
-        h = self._steps.canonical(h)     # a host's last-bit variants of one step share its maps
         key = (h, self._base_key(base))
         hit = self._cache.get(key)
         if hit is not None:
@@ -373,10 +369,7 @@ class FFRBeamDynamics:
         with y = [sensor u, sensor v, sensor a, tip u, reaction F, reaction M] (18 values): the same
         quantities as :meth:`step`, :meth:`sensor_motion`, :meth:`tip_displacement` and
         :meth:`reactions` (tests/test_performance_equivalence.py), at O(m^2) per step.  Cached per
-        (h, omega, alpha) (and a0 with geometric stiffening); ``h = None`` gives the output maps only.  A step
-        within STEP_RTOL of one already seen uses that step's maps (flexfmu.core.step_size, with the error bound)."""
-        if h is not None:
-            h = self._steps.canonical(h)
+        (h, omega, alpha) (and a0 with geometric stiffening); ``h = None`` gives the output maps only."""
         key = (h, self._base_key(base))
         hit = self._fast_cache.get(key)
         if hit is not None:

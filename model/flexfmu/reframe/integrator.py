@@ -78,7 +78,7 @@ from flexfmu.errors import FlexfmuError, ParameterError
 from flexfmu.linalg.modal_basis import N_RIGID
 from flexfmu.core.rotation import oblique_basis
 from flexfmu.core.structure import Structure
-from flexfmu.core.step_size import StepSizes
+from flexfmu.core.step_size import same_step
 # Loads, states / results, the model checks and the baseline live in their own modules; their public
 # names are re-exported here, where the rest of flexfmu and its users import them from.
 from flexfmu.reframe import schemes as _schemes
@@ -175,7 +175,6 @@ class ReframeIntegrator:
         self.stepper.setup()
         self._setup_max_displacement()
         self._ex_cache = {}
-        self._ex_steps = StepSizes()        # the time steps of _ex_cache's keys (flexfmu.core.step_size)
         self.state = self.initial_state()
 
     @property
@@ -208,9 +207,7 @@ class ReframeIntegrator:
         self._Gk = np.ascontiguousarray(Ga.reshape(-1))
 
     def _exponential(self, dt: float) -> np.ndarray:
-        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt; a dt within
-        STEP_RTOL of one already seen uses its coefficients, flexfmu.core.step_size states the error bound)."""
-        dt = self._ex_steps.canonical(dt)
+        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt)."""
         EX = self._ex_cache.get(dt)
         if EX is None:
             EX = np.ascontiguousarray(_schemes.exponential_coefficients(self._kF, self._cF, dt).reshape(-1))
@@ -315,18 +312,26 @@ class ReframeIntegrator:
         return self.advance_steps(state, dt, 1, load)
 
     def advance_steps(self, state: ReframeState, dt: float, n_steps: int, load=None, *,
-                      check_stability: bool = True) -> ReframeState:
+                      check_stability: bool = True, coefficients_dt: float | None = None) -> ReframeState:
         """``n_steps`` steps of dt from ``state`` (not modified): the same as as many :meth:`advance` calls
         (same numbers), in one call of the step kernel for the consistent and exponential schemes.
         ``check_stability=False`` lets dt exceed the RK4 stability limit, for studies that measure the
-        growth there; otherwise such a dt raises ParameterError."""
+        growth there; otherwise such a dt raises ParameterError.  ``coefficients_dt``: the exponential scheme's
+        coefficients are those of this step, within STEP_RTOL of dt (an FMU's cached step for a host's last-bit
+        variant of it: flexfmu.core.step_size states the error bound); the stages still take dt."""
         dt = _check_dt(dt)
         if isinstance(n_steps, bool) or not isinstance(n_steps, numbers.Integral) or n_steps < 1:
             raise ParameterError("n_steps", f"{n_steps!r}", "integer >= 1")
         if self.stability_limited and check_stability:
             self.data.check_stability(dt)
         loads = load if isinstance(load, _Prepared) else _Prepared(self.data.resolve_loads(load))
-        return self.stepper.advance(state, dt, int(n_steps), loads)
+        if coefficients_dt is None:
+            coefficients_dt = dt
+        elif not same_step(coefficients_dt, dt):
+            raise ParameterError("coefficients_dt", f"got {coefficients_dt!r} for dt = {dt!r}",
+                                 "a step within STEP_RTOL of dt (flexfmu.core.step_size)")
+        # an argument, not an attribute: the integrator is shared by FMU instances that may step in other threads
+        return self.stepper.advance(state, dt, int(n_steps), loads, coefficients_dt)
 
     # ---------------------------------------------------------------- consistent scheme
     def _kernel_loads(self, loads: "_Prepared") -> np.ndarray:
@@ -346,12 +351,13 @@ class ReframeIntegrator:
         loads._kernel = (self, LP)
         return LP
 
-    def _consistent_steps(self, s: ReframeState, dt: float, n: int, loads: "_Prepared") -> ReframeState:
+    def _consistent_steps(self, s: ReframeState, dt: float, n: int, loads: "_Prepared",
+                          coefficients_dt: float | None = None) -> ReframeState:
         kern = _kernels()
         LP = self._kernel_loads(loads)
         SV, held = loads.stage_values(s.t, dt, n)
         y0 = _state_vector(s)
-        EX = self.stepper.coefficients(dt)
+        EX = self.stepper.coefficients(dt if coefficients_dt is None else coefficients_dt)
         if EX is None and self._Gk.size == 0:
             y, t, done, status = kern.consistent_steps(self._P, LP, self.data.nf, self.deformed_load_arm, SV, held,
                                                        float(s.t), dt, n, y0)

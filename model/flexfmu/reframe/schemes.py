@@ -124,9 +124,11 @@ class Scheme:
         """Per-dt coefficients for the step kernel (None: classical RK4)."""
         return None
 
-    def advance(self, state: ReframeState, dt: float, n: int, loads) -> ReframeState:
-        """n steps of dt from state (dt and n checked, loads prepared)."""
-        return self.integ._consistent_steps(state, dt, n, loads)
+    def advance(self, state: ReframeState, dt: float, n: int, loads, coefficients_dt: float | None = None
+                ) -> ReframeState:
+        """n steps of dt from state (dt and n checked, loads prepared); the per-dt coefficients of
+        coefficients_dt (default dt; within STEP_RTOL of it)."""
+        return self.integ._consistent_steps(state, dt, n, loads, coefficients_dt)
 
 
 class ConsistentScheme(Scheme):
@@ -170,8 +172,9 @@ class PaperScheme(Scheme):
     def initial_rotvec(self, R0):
         return reparametrize(rotvec_from_matrix(R0.T))
 
-    def advance(self, state: ReframeState, dt: float, n: int, loads) -> ReframeState:
-        s = state
+    def advance(self, state: ReframeState, dt: float, n: int, loads, coefficients_dt: float | None = None
+                ) -> ReframeState:
+        s = state                                      # no per-dt coefficients: coefficients_dt is not used
         for _ in range(n):
             s = self._paper_step(s, dt, loads.items)
             if not (np.all(np.isfinite(s.eta)) and np.all(np.isfinite(s.rotation))

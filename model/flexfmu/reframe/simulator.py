@@ -45,6 +45,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from flexfmu.core.step_size import StepSizes
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
                             finite, finite_input, is_int, require_bool, require_real, require_str, round_down, shown)
@@ -243,6 +244,9 @@ class ReframeBodySimulator:
                                  f"|omega0| <= {omega_cap:.4g} rad/s (max_internal_steps x 0.5 tolerance^(1/4) / "
                                  f"{MIN_COMMUNICATION_STEP:g} s)")
         self._last_split = None
+        # this instance's step sizes: a host's last-bit variants of a step share its exponential coefficients
+        # (flexfmu.core.step_size); per instance, as the integrator is shared by instances of one model
+        self._steps = StepSizes()
         self._force = np.zeros(3)
         self._moment = np.zeros(3)
         self._held_list = [0.0] * 6                 # the held force and moment as a list (set_input_vector)
@@ -438,7 +442,9 @@ class ReframeBodySimulator:
                                  f"step(s) of {step_size / n:.4g} s: {why}")
             self._last_split = n
         try:
-            self.state = self.integrator.advance_steps(self.state, step_size / n, n, self._loads)
+            dt = step_size / n
+            self.state = self.integrator.advance_steps(self.state, dt, n, self._loads,
+                                                       coefficients_dt=self._steps.canonical(dt))
         except FlexfmuError as exc:
             if type(exc) is not FlexfmuError:               # ParameterError of a load history etc.: as raised
                 raise
