@@ -240,3 +240,32 @@ def jacobi_reference(components: dict, connections=(), outputs=(), times=(), inp
     finally:
         for inst in insts.values():
             inst.free()
+
+
+# ---------------------------------------------------------------- the fmpy reference in a host's environment
+JACOBI_DRIVER = r"""
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from host_tools import jacobi_reference
+components, connections, outputs, times = map(json.loads, sys.argv[2:6])
+rows = jacobi_reference({k: tuple(v) for k, v in components.items()}, [tuple(c) for c in connections],
+                        [tuple(o) for o in outputs], [tuple(t) for t in times])
+print("ROWS " + json.dumps([[repr(float(x)) for x in r] for r in rows]))
+"""
+
+
+def jacobi_reference_in(components: dict, connections, outputs, times, env: dict, cwd: Path):
+    """jacobi_reference in a subprocess with the environment ``env`` of the host it is compared with: the same FMU
+    binaries, FMI calls, doubles, HOME (flexfmu cache entries) and BLAS settings, so the same computation, down to
+    the sign of a zero.  components: {name: (FMU path, start values)}."""
+    import json
+    import sys
+
+    import numpy as np
+    components = {name: (str(fmu), start) for name, (fmu, start) in components.items()}
+    proc = run_host([sys.executable, "-c", JACOBI_DRIVER, Path(__file__).resolve().parent, json.dumps(components),
+                     json.dumps(list(connections)), json.dumps(list(outputs)), json.dumps(list(times))], env, cwd,
+                    timeout=300)
+    line = [ln for ln in proc.stdout.splitlines() if ln.startswith("ROWS ")]
+    assert proc.returncode == 0 and line, "the fmpy reference failed" + describe(proc, env)
+    return np.array([[float(x) for x in r] for r in json.loads(line[-1][5:])])

@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 
 from host_tools import (describe, ecos_binaries, ecos_times, fresh_fmu_copy, host_environment, jacobi_reference,
-                        run_host)
+                        jacobi_reference_in, run_host)
 
 H = 1e-3
 SSD_NS = ('xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
@@ -189,27 +189,10 @@ def assert_printed_equal(text_rows, reference: np.ndarray, columns, message):
 
 
 # ---------------------------------------------------------------- fmpy references
-JACOBI_DRIVER = r"""
-import json, sys
-sys.path.insert(0, sys.argv[1])
-from host_tools import jacobi_reference
-components, connections, outputs, times = map(json.loads, sys.argv[2:6])
-rows = jacobi_reference({k: tuple(v) for k, v in components.items()}, [tuple(c) for c in connections],
-                        [tuple(o) for o in outputs], [tuple(t) for t in times])
-print("ROWS " + json.dumps([[repr(float(x)) for x in r] for r in rows]))
-"""
-
-
 def reference_in(components, connections, outputs, times, env, cwd):
     """jacobi_reference in a subprocess with the environment ``env`` of the host it is compared with (module
     docstring: then it is the same computation, down to the sign of a zero)."""
-    components = {name: (str(fmu), start) for name, (fmu, start) in components.items()}
-    proc = run_host([sys.executable, "-c", JACOBI_DRIVER, Path(__file__).resolve().parent, json.dumps(components),
-                     json.dumps(list(connections)), json.dumps(list(outputs)), json.dumps(times)], env, cwd,
-                    timeout=300)
-    line = [ln for ln in proc.stdout.splitlines() if ln.startswith("ROWS ")]
-    assert proc.returncode == 0 and line, "the fmpy reference failed" + describe(proc, env)
-    return np.array([[float(x) for x in r] for r in json.loads(line[-1][5:])])
+    return jacobi_reference_in(components, connections, outputs, times, env, cwd)
 
 
 def pair_reference_in(fmus, env, cwd):

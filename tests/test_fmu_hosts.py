@@ -13,7 +13,7 @@ import pytest
 from fmpy import read_model_description
 
 from fmu_helpers import Instance
-from host_tools import (describe, fresh_fmu_copy, host_environment, libcosim_times, run_host,
+from host_tools import (describe, fresh_fmu_copy, host_environment, jacobi_reference_in, libcosim_times, run_host,
                         value_references)
 
 LIBCOSIM_MISSING = "libcosimpy (DNV's libcosim) is not installed: install the project's dev extra"
@@ -185,30 +185,14 @@ def _run_libcosim_process(executions: list, tmp_path: Path, home: Path):
     return proc, results, message
 
 
-JACOBI_DRIVER = r"""
-import json, sys
-sys.path.insert(0, sys.argv[1])
-from host_tools import jacobi_reference
-components, connections, outputs, times = map(json.loads, sys.argv[2:6])
-rows = jacobi_reference({k: tuple(v) for k, v in components.items()}, [tuple(c) for c in connections],
-                        [tuple(o) for o in outputs], [tuple(t) for t in times])
-print("ROWS " + json.dumps([[repr(float(x)) for x in r] for r in rows]))
-"""
-
-
 def _reference(fmus, spec, home, tmp_path):
     """fmpy's Jacobi run of spec, in a subprocess in the libcosim process's environment (host_environment(home)):
     the same FMU binaries, FMI calls, doubles, HOME (flexfmu cache entries) and BLAS settings (they select the
     kernels of the Python FMUs' set-up), so the same computation.  Run in the test process instead it is not
     (another environment and cache: the C host's test measured 2e-12 apart with OPENBLAS_CORETYPE=Prescott)."""
-    env = host_environment(home)
-    components = {name: (str(fmus[model]), start) for name, (model, start) in spec["components"].items()}
-    proc = run_host([sys.executable, "-c", JACOBI_DRIVER, Path(__file__).resolve().parent, json.dumps(components),
-                     json.dumps(spec["connections"]), json.dumps(spec["outputs"]),
-                     json.dumps(libcosim_times(N_STEPS, STEP_NS))], env, tmp_path, timeout=300)
-    line = [ln for ln in proc.stdout.splitlines() if ln.startswith("ROWS ")]
-    assert proc.returncode == 0 and line, "the fmpy reference failed" + describe(proc, env)
-    rows = np.array([[float(x) for x in r] for r in json.loads(line[-1][5:])])
+    components = {name: (fmus[model], start) for name, (model, start) in spec["components"].items()}
+    rows = jacobi_reference_in(components, spec["connections"], spec["outputs"], libcosim_times(N_STEPS, STEP_NS),
+                               host_environment(home), tmp_path)
     return rows[1:]    # libcosim's observer has no values before the first step
 
 
