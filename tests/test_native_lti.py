@@ -355,6 +355,42 @@ def test_steps_equal_repeated_steps(ffr_model):
     assert np.array_equal(kernel.steps(x0, u, p, 1e-3, 0), x0)
 
 
+def test_output_rows_alone_equal_the_whole_outputs_bit_for_bit(ffr_model):
+    """ffx_lti_output_rows (what a native FMU computes for the outputs a host reads) gives each row asked for with
+    the arithmetic of ffx_lti_outputs, in the same order: equal bit for bit, with the quadratic terms visited per
+    row (quad_start) or by the general loop; rows not asked for are not written."""
+    lib = lti.library()
+    kernel = ffr_model.kernel()
+    rng = np.random.default_rng(11)
+    x, u = rng.standard_normal(ffr_model.nx) * 1e-3, rng.standard_normal(ffr_model.nu)
+    p = np.r_[0.02, rng.standard_normal(ffr_model.np - 1)]
+    whole = kernel.outputs(x, u, p)
+    starts = np.zeros(ffr_model.ny + 1, dtype=np.int32)
+    assert ffr_model.nquad > 0
+    assert lib.ffx_lti_quad_starts(ctypes.addressof(kernel._model), lti._ptr(starts, lti._ip)) == 1
+    assert np.array_equal(np.diff(starts), np.bincount(ffr_model.quad_row, minlength=ffr_model.ny))
+    subsets = [[], [0], [ffr_model.ny - 1], sorted(set(ffr_model.quad_row.tolist())),
+               rng.permutation(ffr_model.ny)[:5].tolist(), list(range(ffr_model.ny))]
+    for quad_start in (None, lti._ptr(starts, lti._ip)):
+        kernel._model.quad_start = quad_start
+        assert lib.ffx_lti_check_model(ctypes.addressof(kernel._model)) == lti.OK
+        for rows in subsets:
+            y = np.full(ffr_model.ny, -7.0)
+            wanted = np.array(rows, dtype=np.int32)
+            status = lib.ffx_lti_output_rows(ctypes.byref(kernel._maps), lti._ptr(p), lti._ptr(x), lti._ptr(u),
+                                             lti._ptr(wanted, lti._ip), len(rows), lti._ptr(y))
+            assert status == lti.OK
+            assert np.array_equal(y[rows], whole[rows]), rows
+            assert np.all(np.delete(y, rows) == -7.0)
+    starts[1] += 1                                      # row starts that do not match the rows: refused
+    kernel._model.quad_start = lti._ptr(starts, lti._ip)
+    assert lib.ffx_lti_check_model(ctypes.addressof(kernel._model)) == lti.BAD_ARGUMENT
+    kernel._model.quad_start = None
+    unordered = dataclasses.replace(ffr_model, quad_row=ffr_model.quad_row[::-1].copy())
+    unordered_kernel = unordered.kernel()
+    assert lib.ffx_lti_quad_starts(ctypes.addressof(unordered_kernel._model), lti._ptr(starts, lti._ip)) == 0
+
+
 def test_non_finite_results_are_reported_and_leave_the_state(ffr_model):
     lib = lti.library()
     kernel = ffr_model.kernel()

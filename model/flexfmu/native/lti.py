@@ -598,7 +598,8 @@ _ip = ctypes.POINTER(ctypes.c_int)
 class _Model(ctypes.Structure):
     _fields_ = [("nx", ctypes.c_int), ("nu", ctypes.c_int), ("ny", ctypes.c_int), ("np", ctypes.c_int),
                 ("nmono", ctypes.c_int), ("A", _dp), ("B", _dp), ("b", _dp), ("Cx", _dp), ("Cu", _dp), ("y0", _dp),
-                ("nquad", ctypes.c_int), ("quad_row", _ip), ("quad_i", _ip), ("quad_j", _ip), ("quad_value", _dp)]
+                ("nquad", ctypes.c_int), ("quad_row", _ip), ("quad_i", _ip), ("quad_j", _ip), ("quad_value", _dp),
+                ("quad_start", _ip)]  # NULL here: the outputs are computed whole
 
 
 class _Maps(ctypes.Structure):
@@ -630,6 +631,8 @@ def library() -> ctypes.CDLL:
                 ("ffx_lti_step", c_int, [vp, vp, c_double, vp, vp, vp]),
                 ("ffx_lti_steps", c_int, [vp, vp, c_double, c_long, vp, vp, vp]),
                 ("ffx_lti_outputs", c_int, [vp, vp, vp, vp, vp]),
+                ("ffx_lti_output_rows", c_int, [vp, vp, vp, vp, vp, c_int, vp]),
+                ("ffx_lti_quad_starts", c_int, [vp, vp]),
                 ("ffx_lti_status_string", ctypes.c_char_p, [c_int])):
             f = getattr(lib, name)
             f.restype, f.argtypes = res, args

@@ -10,9 +10,10 @@
  *  - holds the variables: parameters (structural ones fixed at build: their build value is accepted, another
  *    is refused naming the parameter, its build value and the rebuild command; runtime ones settable until
  *    fmi2ExitInitializationMode and range-checked there), inputs (held from fmi2DoStep on: outputs read
- *    after new inputs are set are still those of the last step's inputs), outputs (computed when first read
- *    after a step or a restored state; the deferred ones, the model file's outputs.deferred (a costly search such
- *    as max_elastic_displacement), only when one of them is read: two validity flags);
+ *    after new inputs are set are still those of the last step's inputs), outputs (each computed when first read
+ *    after a step: a host that reads 3 of 25 outputs pays for 3; a validity flag per output.  An FMU state holds
+ *    every output but the deferred ones, the model file's outputs.deferred (a costly search such as
+ *    max_elastic_displacement), which it holds only if they were read);
  *  - refuses non-finite values when set, a currentCommunicationPoint that is not the FMU's time, a state or
  *    output that is not finite or beyond the model's divergence limit (naming the input behind it, else
  *    "state"), each with one message through the front's log (fmi2Error, category logStatusError; a step a
@@ -398,11 +399,11 @@ typedef struct {
     char *const *messages;
 } Model;
 
-/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values.  outputs_valid:
-   the outputs but the deferred ones are those of x with held; deferred_valid: the deferred ones too (implies
-   outputs_valid). */
+/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values.  valid[i]:
+   outputs[i] is that of x with held (computed since the last step). */
 typedef struct {
-    int initialised, outputs_valid, deferred_valid;
+    int initialised;
+    unsigned char *valid; /* per output */
     double time, start_time;
     double *values;       /* per variable: parameters' and inputs' values (outputs, strings: 0) */
     double *held;         /* the inputs the kind got at the last step (or initialisation) */
@@ -416,6 +417,7 @@ typedef struct {
     void *sim;            /* the kind's simulator; NULL before fmi2ExitInitializationMode */
     double *params;       /* the runtime parameters as the simulator got them (special values replaced) */
     double *scratch_x, *scratch_y;
+    unsigned char *scratch_which; /* per output: asked of the kind, then written by it */
     double *state_held;   /* the inputs the current state's step held (at initialisation: those held then; after a
                              restore: the state's); a refused step leaves it (NativeKind.step_held) */
     BridgeLog *log;
@@ -575,7 +577,8 @@ static int snapshot_alloc(const Model *m, Snapshot *s) {
     s->held = calloc(m->layout.n_inputs + 1, sizeof *s->held);
     s->outputs = calloc(m->layout.n_outputs + 1, sizeof *s->outputs);
     s->x = calloc(m->nx + 1, sizeof *s->x);
-    return s->values && s->held && s->outputs && s->x ? 0 : -1;
+    s->valid = calloc(m->layout.n_outputs + 1, 1);
+    return s->values && s->held && s->outputs && s->x && s->valid ? 0 : -1;
 }
 
 static void snapshot_free(Snapshot *s) {
@@ -583,13 +586,13 @@ static void snapshot_free(Snapshot *s) {
     free(s->held);
     free(s->outputs);
     free(s->x);
+    free(s->valid);
     memset(s, 0, sizeof *s);
 }
 
 static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
     to->initialised = from->initialised;
-    to->outputs_valid = from->outputs_valid;
-    to->deferred_valid = from->deferred_valid;
+    memcpy(to->valid, from->valid, m->layout.n_outputs);
     to->time = from->time;
     to->start_time = from->start_time;
     memcpy(to->values, from->values, m->n_vars * sizeof *to->values);
@@ -607,7 +610,8 @@ static void clear(Slave *s) {
     memset(now->held, 0, m->layout.n_inputs * sizeof *now->held);
     memset(now->outputs, 0, m->layout.n_outputs * sizeof *now->outputs);
     memset(now->x, 0, m->nx * sizeof *now->x);
-    now->initialised = now->outputs_valid = now->deferred_valid = 0;
+    memset(now->valid, 0, m->layout.n_outputs);
+    now->initialised = 0;
     now->time = now->start_time = 0.0;
     if (s->sim) m->kind->free_sim(s->sim);
     s->sim = NULL;
@@ -638,7 +642,8 @@ static void note(void *context, const char *text) {
 
 static NativeResult new_result(Slave *s) {
     NativeResult r;
-    memset(&r, 0, sizeof r);
+    r.status = BRIDGE_OK;
+    r.message[0] = '\0'; /* not the whole buffer: this runs at every step and read */
     r.note = note;
     r.note_context = s;
     return r;
@@ -686,18 +691,11 @@ static void *make_sim(Slave *s, const double *values, double *x) {
 
 static void time_text(double t, char *text, size_t size) { native_repr(t, text, size); }
 
-/* Which outputs a computation checks: all, all but the deferred ones, the deferred ones only. */
-enum { ALL_OUTPUTS, CHEAP_OUTPUTS, DEFERRED_OUTPUTS };
-
-static int checked(const Model *m, size_t i, int which) {
-    return which == ALL_OUTPUTS || (which == DEFERRED_OUTPUTS) == (m->deferred[i] != 0);
-}
-
-static void bad_outputs(const Slave *s, const double *y, int which, char *names, size_t size) {
+static void bad_outputs(const Slave *s, const double *y, const unsigned char *which, char *names, size_t size) {
     names[0] = '\0';
     int shown = 0;
     for (size_t i = 0; i < s->m.layout.n_outputs; i++) {
-        if (!checked(&s->m, i, which) || isfinite(y[i])) continue;
+        if (!which[i] || isfinite(y[i])) continue;
         size_t used = strlen(names);
         if (shown++ < 4) snprintf(names + used, size - used, "%s%s", used ? ", " : "", s->m.output_names[i]);
     }
@@ -707,16 +705,16 @@ static void bad_outputs(const Slave *s, const double *y, int which, char *names,
     }
 }
 
-/* One computation of outputs into y (which: what it computes; a refusal when one of them is not finite). */
-static int compute_outputs(Slave *s, double *y, int which) {
+/* One computation by the kind of the outputs `which` marks into y (which then marks what it wrote; a refusal when
+   one of them is not finite). */
+static int compute_outputs(Slave *s, double *y, unsigned char *which) {
     Snapshot *now = &s->now;
     const Model *m = &s->m;
     NativeResult r = new_result(s);
-    int status = which == DEFERRED_OUTPUTS ? m->kind->deferred_outputs(s->sim, now->x, now->held, y, &r)
-                                           : m->kind->outputs(s->sim, now->x, now->held, y, which == ALL_OUTPUTS, &r);
+    int status = m->kind->outputs(s->sim, now->x, now->held, y, which, &r);
     if (status == BRIDGE_OK) {
         for (size_t i = 0; i < m->layout.n_outputs; i++)
-            if (checked(m, i, which) && !isfinite(y[i])) status = NATIVE_NOT_FINITE;
+            if (which[i] && !isfinite(y[i])) status = NATIVE_NOT_FINITE;
     }
     if (status == NATIVE_NOT_FINITE) {
         char names[512], t[64];
@@ -734,33 +732,29 @@ static int compute_outputs(Slave *s, double *y, int which) {
     return BRIDGE_OK;
 }
 
-/* Compute the outputs of the current state and held inputs that are not valid yet: those but the deferred ones,
-   and the deferred ones too when `with_deferred` (a refusal when one is not finite). */
-static int read_outputs(Slave *s, int with_deferred) {
+/* Make valid the outputs s->scratch_which marks (the caller fills it, with outputs not valid yet only): computed
+   from the current state and held inputs (a refusal when one is not finite). */
+static int read_outputs(Slave *s) {
     Snapshot *now = &s->now;
     const Model *m = &s->m;
+    unsigned char *which = s->scratch_which;
     if (!s->sim) return BRIDGE_OK; /* before initialisation: the start values */
-    /* without the kind's deferred_outputs, the deferred outputs come with the others */
-    if (m->layout.n_deferred == 0 || !m->kind->deferred_outputs) with_deferred = 1;
-    double *y = s->scratch_y;
-    size_t bytes = m->layout.n_outputs * sizeof *y;
-    if (!now->outputs_valid) {
-        memcpy(y, now->outputs, bytes); /* the places of outputs not computed keep their last values */
-        int all = with_deferred || m->layout.n_deferred == 0;
-        int status = compute_outputs(s, y, all ? ALL_OUTPUTS : CHEAP_OUTPUTS);
-        if (status != BRIDGE_OK) return status;
-        memcpy(now->outputs, y, bytes);
-        now->outputs_valid = 1;
-        now->deferred_valid = all;
-    }
-    if (with_deferred && !now->deferred_valid) { /* the others valid: the deferred ones alone */
-        memcpy(y, now->outputs, bytes);
-        int status = compute_outputs(s, y, DEFERRED_OUTPUTS);
-        if (status != BRIDGE_OK) return status;
-        memcpy(now->outputs, y, bytes);
-        now->deferred_valid = 1;
-    }
+    double *y = s->scratch_y; /* the kind writes what it computes here; kept only if all of it is finite */
+    int status = compute_outputs(s, y, which);
+    if (status != BRIDGE_OK) return status;
+    for (size_t i = 0; i < m->layout.n_outputs; i++)
+        if (which[i]) now->outputs[i] = y[i], now->valid[i] = 1;
     return BRIDGE_OK;
+}
+
+/* read_outputs of every output (with_deferred 1) or of every output but the deferred ones (0) not valid yet. */
+static int read_all_outputs(Slave *s, int with_deferred) {
+    int any = 0;
+    for (size_t i = 0; i < s->m.layout.n_outputs; i++) {
+        s->scratch_which[i] = (with_deferred || !s->m.deferred[i]) && !s->now.valid[i];
+        any |= s->scratch_which[i];
+    }
+    return any ? read_outputs(s) : BRIDGE_OK;
 }
 
 /* ---- BridgeApi ------------------------------------------------------------------------------------- */
@@ -777,6 +771,7 @@ static void free_slave(Slave *s) {
     free(s->params);
     free(s->scratch_x);
     free(s->scratch_y);
+    free(s->scratch_which);
     free(s->state_held);
     free_model(&s->m);
     free(s);
@@ -803,6 +798,7 @@ static void *instantiate(const char *resources_dir, const char *instance_name, c
     if (snapshot_alloc(&s->m, &s->now) < 0 || !(s->params = calloc(s->m.layout.n_params + 1, sizeof *s->params))
         || !(s->scratch_x = calloc(s->m.nx + 1, sizeof *s->scratch_x))
         || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))
+        || !(s->scratch_which = calloc(s->m.layout.n_outputs + 1, 1))
         || !(s->state_held = calloc(s->m.layout.n_inputs + 1, sizeof *s->state_held))) {
         log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
         free_slave(s);
@@ -830,11 +826,11 @@ static int exit_initialization_mode(Slave *s) {
     memcpy(now->x, x, s->m.nx * sizeof *x);
     now->time = 0.0;
     now->initialised = 1;
-    now->outputs_valid = now->deferred_valid = 0;
+    memset(now->valid, 0, s->m.layout.n_outputs);
     for (size_t j = 0; j < s->m.layout.n_inputs; j++) now->held[j] = now->values[s->m.input_vr[j]];
     memcpy(s->state_held, now->held, s->m.layout.n_inputs * sizeof *now->held);
     for (size_t k = 0; k < s->m.n_messages; k++) note(s, s->m.messages[k]);
-    return read_outputs(s, 1); /* every output once: a problem shows here rather than at a later read */
+    return read_all_outputs(s, 1); /* every output once: a problem shows here rather than at a later read */
 }
 
 static int simple_call(void *slave, BridgeSimpleCall call) {
@@ -870,7 +866,7 @@ static int do_step(void *slave, double current_time, double h) {
                                        "with fmi2SetFMUstate to step from another time)", got, expected);
     }
     for (size_t j = 0; j < m->layout.n_inputs; j++) now->held[j] = now->values[m->input_vr[j]];
-    now->outputs_valid = now->deferred_valid = 0; /* from here on the outputs are those of another state */
+    memset(now->valid, 0, m->layout.n_outputs); /* from here on the outputs are those of another state */
     double t = now->time + h;
     if (!isfinite(t)) {
         char at[64];
@@ -944,14 +940,17 @@ static int get_values(void *slave, BridgeValueType type, const unsigned int *vr,
     Slave *s = slave;
     const char *function = GET_NAMES[type];
     if (refuse_reference(s, function, type, vr, nvr, 0) != BRIDGE_OK) return BRIDGE_ERROR;
-    if (s->sim && !s->now.deferred_valid) { /* the outputs read: computed once, the deferred ones only if asked */
-        int any = 0, deferred = 0;
+    if (s->sim) { /* the outputs read: each computed once per step, and only if read */
+        int any = 0;
         for (size_t i = 0; i < nvr; i++) {
             const Variable *v = &s->m.vars[vr[i]];
-            if (v->causality == OUTPUT) any = 1, deferred |= s->m.deferred[v->index];
+            if (v->causality == OUTPUT && !s->now.valid[v->index]) {
+                if (!any) memset(s->scratch_which, 0, s->m.layout.n_outputs);
+                any = 1, s->scratch_which[v->index] = 1;
+            }
         }
-        if ((any && !s->now.outputs_valid) || deferred) {
-            int status = read_outputs(s, deferred);
+        if (any) {
+            int status = read_outputs(s);
             if (status != BRIDGE_OK) return status;
         }
     }
@@ -1069,8 +1068,8 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
 
 static int get_state(void *slave, void **state) {
     Slave *s = slave;
-    if (s->sim && !s->now.outputs_valid) { /* the deferred outputs stay as they are: computed when read */
-        int status = read_outputs(s, 0);
+    if (s->sim) { /* the state holds every output but the deferred ones, which are computed only when read */
+        int status = read_all_outputs(s, 0);
         if (status != BRIDGE_OK) return status;
     }
     Snapshot *copy = malloc(sizeof *copy);
@@ -1113,8 +1112,8 @@ static int set_state(void *slave, void *state) {
     s->sim = sim;
     snapshot_copy(m, &s->now, from);
     memcpy(s->state_held, from->held, m->layout.n_inputs * sizeof *from->held);
-    s->now.outputs_valid = from->initialised; /* the outputs of the state's last step, as taken */
-    s->now.deferred_valid = from->initialised && from->deferred_valid;
+    for (size_t i = 0; i < m->layout.n_outputs; i++) /* the outputs of the state's last step, as taken */
+        s->now.valid[i] = from->initialised && (!m->deferred[i] || from->valid[i]);
     return BRIDGE_OK;
 }
 
@@ -1144,8 +1143,10 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
     put32(b + 16, (uint32_t)m->layout.n_inputs);
     put32(b + 20, (uint32_t)m->layout.n_outputs);
     put32(b + 24, (uint32_t)m->nx);
-    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (st->outputs_valid ? 2 : 0)
-                             | (st->outputs_valid && st->deferred_valid ? 4 : 0)));
+    int cheap_valid = 1, deferred_valid = 1;
+    for (size_t i = 0; i < m->layout.n_outputs; i++) *(m->deferred[i] ? &deferred_valid : &cheap_valid) &= st->valid[i];
+    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (cheap_valid ? 2 : 0)
+                             | (cheap_valid && deferred_valid ? 4 : 0)));
     unsigned char *at = b + 32;
     put_f64(at, st->time), at += 8;
     put_f64(at, st->start_time), at += 8;
@@ -1181,8 +1182,8 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
         return refuse(s, BRIDGE_ERROR, "fmi2DeSerializeFMUstate: out of memory");
     }
     st->initialised = flags & 1;
-    st->outputs_valid = (flags & 2) != 0;
-    st->deferred_valid = (flags & 6) == 6;
+    for (size_t i = 0; i < m->layout.n_outputs; i++)
+        st->valid[i] = (unsigned char)(m->deferred[i] ? (flags & 6) == 6 : (flags & 2) != 0);
     const unsigned char *at = b + 32;
     st->time = f64_of(at), at += 8;
     st->start_time = f64_of(at), at += 8;

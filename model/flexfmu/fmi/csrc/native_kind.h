@@ -15,12 +15,11 @@
  *   init        a simulator for the runtime parameters' values (already range-checked by the bridge) and its
  *               initial state x; kind-specific checks of the parameters here
  *   step        advance x over h with the inputs u held; x is written only on success
- *   outputs     the outputs (model-file order) of x with u held: all of them, or all but the deferred ones
- *               (include_deferred 0: the layout's `deferred` outputs, costly ones such as a search over the mesh,
- *               are neither computed nor written)
- *   deferred_outputs  (optional) the deferred outputs only (written into their places of y, the others left): the
- *               bridge calls it when a deferred output is read after the others were computed without it (NULL:
- *               the bridge computes the outputs with include_deferred 1 whenever it computes them)
+ *   outputs     the outputs (model-file order) of x with u held that the host reads: `which` marks them (1) on entry,
+ *               and on return marks every output the call wrote (a kind may write more than asked when they come
+ *               together, e.g. all the cheap ones); the bridge keeps each until the state or inputs change, so an
+ *               output is computed once per step and only if read.  The layout's `deferred` outputs (costly ones
+ *               such as a search over the mesh) should be written only when asked for.
  *   report      (optional) status-OK notes at fmi2Terminate (e.g. how often the deferred outputs were computed)
  *   step_held   (optional) step, also given the inputs held before this step
  *   culprit     the input most likely behind a non-finite or diverged state or output (index), or -1 (the
@@ -74,8 +73,8 @@ typedef struct {
     const char *const *input_names;
     const char *const *output_names;
     const char *const *param_names;
-    /* per output: 1 if it is deferred (computed only when read: the model file's "outputs.deferred"), else 0;
-       n_deferred of them */
+    /* per output: 1 if it is deferred (costly: computed only when that output is read, the model file's
+       "outputs.deferred"; an FMU state holds it only if it was read), else 0; n_deferred of them */
     const unsigned char *deferred;
     size_t n_deferred;
 } NativeLayout;
@@ -101,8 +100,8 @@ typedef struct {
     void *(*init)(const void *model, const double *params, double *x, NativeResult *result);
     void (*free_sim)(void *sim);
     int (*step)(void *sim, double *x, const double *u, double t, double h, NativeResult *result);
-    /* include_deferred 0: all outputs but the layout's deferred ones (their places in y not written) */
-    int (*outputs)(void *sim, const double *x, const double *u, double *y, int include_deferred,
+    /* which (n_outputs): in, the outputs to compute; out, the outputs written into y (at least those asked) */
+    int (*outputs)(void *sim, const double *x, const double *u, double *y, unsigned char *which,
                    NativeResult *result);
     /* what: 0 the state after the last step (from x with u): the input whose contribution alone is above
        `threshold` (the largest), else -1; 1 the outputs of x with u: the input that alone overflows them, else
@@ -113,9 +112,6 @@ typedef struct {
        estimates the rotation from the state's rates with the inputs its step held */
     int (*step_held)(void *sim, double *x, const double *u_before, const double *u, double t, double h,
                      NativeResult *result);
-    /* optional (NULL: outputs with include_deferred 1 instead): the deferred outputs of x with u into their places
-       of y (the others not written); NATIVE_NOT_FINITE when one is not finite */
-    int (*deferred_outputs)(void *sim, const double *x, const double *u, double *y, NativeResult *result);
     /* optional: status-OK notes (native_note) at fmi2Terminate */
     void (*report)(void *sim, NativeResult *result);
 } NativeKind;

@@ -38,13 +38,14 @@ typedef struct {
     const double *p_start;
     int internal_step, max_internal_steps, log_split;
     int *quadratic;      /* per p_k: appears in a degree-2 monomial with a non-zero coefficient */
-    int *quad_row, *quad_i, *quad_j;
+    int *quad_row, *quad_i, *quad_j, *quad_start;
 } LtiModel;
 
 typedef struct {
     const LtiModel *m;
     ffx_lti_maps maps;
     double *work, *p, *u, *y, *params;
+    int *rows;           /* the y_k asked for (outputs) */
     double internal_step;
     long cap, last_split;
     double last_h;       /* internal step of the last step (for the culprit) */
@@ -118,13 +119,17 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     m->quad_i = malloc(sizeof(int) * (size_t)(nquad + 1));
     m->quad_j = malloc(sizeof(int) * (size_t)(nquad + 1));
     m->quadratic = calloc((size_t)np + 1, sizeof(int));
-    if (!m->quad_row || !m->quad_i || !m->quad_j || !m->quadratic) {
+    m->quad_start = malloc(sizeof(int) * (size_t)(ny + 1));
+    if (!m->quad_row || !m->quad_i || !m->quad_j || !m->quadratic || !m->quad_start) {
         snprintf(why, why_size, "out of memory");
         goto fail;
     }
     for (long k = 0; k < nquad; k++) m->quad_row[k] = quad_row[k], m->quad_i[k] = quad_i[k], m->quad_j[k] = quad_j[k];
     m->kernel = (ffx_lti_model){(int)nx, (int)nu, (int)ny, (int)np, (int)nmono, A, B, b, Cx, Cu, y0, (int)nquad,
-                                m->quad_row, m->quad_i, m->quad_j, quad_value};
+                                m->quad_row, m->quad_i, m->quad_j, quad_value, NULL};
+    for (long q = 0; q < nquad; q++) /* ffx_lti_quad_starts reads the rows: checked first */
+        if (quad_row[q] < 0 || quad_row[q] >= ny) goto bad_index;
+    if (ffx_lti_quad_starts(&m->kernel, m->quad_start)) m->kernel.quad_start = m->quad_start; /* rows alone */
     if (ffx_lti_check_model(&m->kernel) != FFX_LTI_OK) {
         snprintf(why, why_size, "the model file's lti arrays are inconsistent (sizes or quadratic-term indices)");
         goto fail;
@@ -148,6 +153,7 @@ fail:
         free(m->quad_i);
         free(m->quad_j);
         free(m->quadratic);
+        free(m->quad_start);
     }
     free(m);
     return NULL;
@@ -160,6 +166,7 @@ static void free_model(void *model) {
     free(m->quad_i);
     free(m->quad_j);
     free(m->quadratic);
+    free(m->quad_start);
     free(m);
 }
 
@@ -173,6 +180,7 @@ static void free_sim(void *sim) {
     free(s->u);
     free(s->y);
     free(s->params);
+    free(s->rows);
     free(s);
 }
 
@@ -183,7 +191,8 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     size_t n = ffx_lti_maps_work_len(k);
     if (!s || !(s->work = malloc(sizeof(double) * (n + 1))) || !(s->p = calloc((size_t)k->np + 1, sizeof(double)))
         || !(s->u = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->y = calloc((size_t)k->ny + 1, sizeof(double)))
-        || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))) {
+        || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))
+        || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int)))) {
         free_sim(s);
         native_refuse(r, BRIDGE_ERROR, "out of memory");
         return NULL;
@@ -274,14 +283,19 @@ static int step(void *sim, double *x, const double *in, double t, double h, Nati
     return NATIVE_NOT_FINITE; /* the maps or the state overflow: the bridge names the culprit */
 }
 
-static int outputs(void *sim, const double *x, const double *in, double *y, int include_deferred, NativeResult *r) {
-    (void)include_deferred; /* no deferred outputs */
+/* Only the outputs asked for: a host often reads a few of them (an accelerometer of a 25-output body). */
+static int outputs(void *sim, const double *x, const double *in, double *y, unsigned char *which, NativeResult *r) {
     LtiSim *s = sim;
     const LtiModel *m = s->m;
     assemble(s, in);
-    int status = ffx_lti_outputs(&s->maps, s->p, x, s->u, s->y);
+    int n = 0;
+    for (int k = 0; k < m->kernel.ny; k++) { /* branch-free: which is a pattern the predictor does not learn */
+        s->rows[n] = k;
+        n += which[m->y_to_output[k]] != 0;
+    }
+    int status = ffx_lti_output_rows(&s->maps, s->p, x, s->u, s->rows, n, s->y);
     if (status == FFX_LTI_BAD_ARGUMENT) return native_refuse(r, BRIDGE_ERROR, "%s", ffx_lti_status_string(status));
-    for (int k = 0; k < m->kernel.ny; k++) y[m->y_to_output[k]] = s->y[k];
+    for (int q = 0; q < n; q++) y[m->y_to_output[s->rows[q]]] = s->y[s->rows[q]];
     return status == FFX_LTI_OK ? BRIDGE_OK : NATIVE_NOT_FINITE;
 }
 
@@ -331,4 +345,6 @@ static int culprit(void *sim, int what, const double *x, const double *in, doubl
     return best; /* outputs: the largest contributor (one that overflows alone is the largest) */
 }
 
-const NativeKind native_lti_kind = {"lti", load, free_model, state_size, init, free_sim, step, outputs, culprit};
+const NativeKind native_lti_kind = {.name = "lti", .load = load, .free_model = free_model, .state_size = state_size,
+                                    .init = init, .free_sim = free_sim, .step = step, .outputs = outputs,
+                                    .culprit = culprit};

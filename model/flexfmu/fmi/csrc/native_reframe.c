@@ -37,9 +37,10 @@
  * otherwise n = ceil(h / max_step (1 - 1e-12)), max_step = internal_step, or 90 % of the RK4 limit (consistent).
  *
  * The max elastic displacement (kernel column 22 + 2 nf, a search over every node) is the layout's deferred output
- * (the model file's outputs.deferred, from the spec's deferred outputs): outputs(..., include_deferred = 0) skips
- * the search, deferred_outputs does only the search (ffx_reframe_max_node_norm on q_F of x: the value
- * ffx_reframe_outputs gives), and report notes at fmi2Terminate how many searches were done.
+ * (the model file's outputs.deferred, from the spec's deferred outputs): outputs() searches only when it is asked
+ * for (ffx_reframe_max_node_norm on q_F of x alone when no other output is: the value ffx_reframe_outputs gives),
+ * and report notes at fmi2Terminate how many searches were done.  The other outputs come from one kernel call, so
+ * one asked for writes all of them.
  *
  * A communication step h with the inputs held is n equal internal steps, n as ReframeBodySimulator._split:
  * internal_step > 0: ceil(h / internal_step (1 - 1e-12)); internal_step = 0: the rotation per internal step,
@@ -606,8 +607,9 @@ static int step(void *sim, double *x, const double *u, double t, double h, Nativ
     return step_held(sim, x, u, u, t, h, r);
 }
 
-static int outputs(void *sim, const double *x, const double *u, double *y, int include_deferred, NativeResult *r) {
-    ReframeSim *s = sim;
+/* The outputs but the deferred ones (those too with include_deferred). */
+static int cheap_outputs(ReframeSim *s, const double *x, const double *u, double *y, int include_deferred,
+                         NativeResult *r) {
     const ReframeModel *m = s->m;
     const unsigned char *deferred = m->layout.deferred;
     if (moment_refused(s, u, r)) return r->status;
@@ -627,9 +629,7 @@ static int outputs(void *sim, const double *x, const double *u, double *y, int i
 }
 
 /* The deferred outputs (the max elastic displacement): the search ffx_reframe_outputs does, on the same q_F. */
-static int deferred_outputs(void *sim, const double *x, const double *u, double *y, NativeResult *r) {
-    (void)u, (void)r;
-    ReframeSim *s = sim;
+static int deferred_outputs(ReframeSim *s, const double *x, double *y) {
     const ReframeModel *m = s->m;
     const double *q = x + 12 + FFX_REFRAME_N_RIGID; /* eta = [q_R (6), q_F (nf), ...] */
     double value = FFX_REFRAME_NOT_COMPUTED;
@@ -642,6 +642,22 @@ static int deferred_outputs(void *sim, const double *x, const double *u, double 
     for (int k = 0; k < m->n_out; k++)
         if (m->layout.deferred && m->layout.deferred[k]) y[k] = value, bad |= !isfinite(value);
     return bad ? NATIVE_NOT_FINITE : BRIDGE_OK;
+}
+
+/* The cheap outputs come together (one kernel call): all of them when one is asked for; the deferred ones only
+   when one of them is asked for. */
+static int outputs(void *sim, const double *x, const double *u, double *y, unsigned char *which, NativeResult *r) {
+    ReframeSim *s = sim;
+    const ReframeModel *m = s->m;
+    const unsigned char *deferred = m->layout.deferred;
+    int cheap = 0, costly = 0;
+    for (int k = 0; k < m->n_out; k++)
+        if (which[k]) *(deferred && deferred[k] ? &costly : &cheap) = 1;
+    int status = cheap ? cheap_outputs(s, x, u, y, costly, r) : costly ? deferred_outputs(s, x, y) : BRIDGE_OK;
+    if (status >= BRIDGE_DISCARD && status != NATIVE_NOT_FINITE) return status;
+    for (int k = 0; k < m->n_out; k++)
+        which[k] = deferred && deferred[k] ? (unsigned char)costly : (unsigned char)cheap;
+    return status;
 }
 
 /* At fmi2Terminate: how often the max elastic displacement was searched for (only when read, or when an output that
@@ -677,5 +693,7 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
     return best;
 }
 
-const NativeKind native_reframe_kind = {"reframe", load, free_model, state_size, init, free_sim, step, outputs,
-                                        culprit, step_held, deferred_outputs, report};
+const NativeKind native_reframe_kind = {.name = "reframe", .load = load, .free_model = free_model,
+                                        .state_size = state_size, .init = init, .free_sim = free_sim, .step = step,
+                                        .outputs = outputs, .culprit = culprit, .step_held = step_held,
+                                        .report = report};

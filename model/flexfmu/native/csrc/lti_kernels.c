@@ -19,6 +19,39 @@ static int all_finite(const double *v, size_t n)
     return 1;
 }
 
+/* sum_j a[j] v[j], summed in order j = 0, 1, ... from 0.0 (the order every mat-vec here uses). */
+static double dot(const double *a, const double *v, int n)
+{
+    double sum = 0.0;
+    int j;
+    for (j = 0; j < n; j++) sum += a[j] * v[j];
+    return sum;
+}
+
+/* to[i] = sum_j M[i][j] v[j] + add[i] (M (rows, n) row-major), each sum in the order of dot().  Four rows at a
+ * time: four independent sums keep the adder busy where one sum would wait on its previous add (the per-step
+ * mat-vec of a small model is latency-bound); the order within each row, and so every bit, is dot()'s. */
+static void matvec_add(const double *M, const double *v, const double *add, int rows, int n, double *to)
+{
+    int i = 0, j;
+    for (; i + 4 <= rows; i += 4) {
+        const double *m0 = M + (size_t)i * n, *m1 = m0 + n, *m2 = m1 + n, *m3 = m2 + n;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+        for (j = 0; j < n; j++) {
+            double vj = v[j];
+            s0 += m0[j] * vj;
+            s1 += m1[j] * vj;
+            s2 += m2[j] * vj;
+            s3 += m3[j] * vj;
+        }
+        to[i] = s0 + add[i];
+        to[i + 1] = s1 + add[i + 1];
+        to[i + 2] = s2 + add[i + 2];
+        to[i + 3] = s3 + add[i + 3];
+    }
+    for (; i < rows; i++) to[i] = dot(M + (size_t)i * n, v, n) + add[i];
+}
+
 /* C = A B, all (n, n) row-major; C must not alias A or B. */
 static void matmul(int n, const double *A, const double *B, double *C)
 {
@@ -92,7 +125,28 @@ int ffx_lti_check_model(const ffx_lti_model *m)
             || m->quad_j[k] < 0 || m->quad_j[k] >= nz)
             return FFX_LTI_BAD_ARGUMENT;
     }
+    if (m->quad_start != NULL) {
+        int r;
+        if (m->quad_start[0] != 0 || m->quad_start[m->ny] != m->nquad) return FFX_LTI_BAD_ARGUMENT;
+        for (r = 0; r < m->ny; r++) {
+            if (m->quad_start[r + 1] < m->quad_start[r]) return FFX_LTI_BAD_ARGUMENT;
+            for (k = m->quad_start[r]; k < m->quad_start[r + 1]; k++)
+                if (m->quad_row[k] != r) return FFX_LTI_BAD_ARGUMENT;
+        }
+    }
     return FFX_LTI_OK;
+}
+
+int ffx_lti_quad_starts(const ffx_lti_model *m, int *quad_start)
+{
+    int k, r = 0;
+    for (k = 1; k < m->nquad; k++)
+        if (m->quad_row[k] < m->quad_row[k - 1]) return 0;
+    quad_start[0] = 0;
+    for (k = 0; k < m->nquad; k++)
+        while (r < m->quad_row[k]) quad_start[++r] = k;
+    while (r < m->ny) quad_start[++r] = m->nquad;
+    return 1;
 }
 
 void ffx_lti_monomials(int np, const double *p, double *mono)
@@ -520,23 +574,12 @@ int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const d
     /* the per-step input term Bd u + bd once: c[nx..2nx) */
     {
         double *g = c + nx;
-        size_t i, j;
-        for (i = 0; i < nx; i++) {
-            const double *bu = maps->Bd + i * nu;
-            double su = 0.0;
-            for (j = 0; j < nu; j++) su += bu[j] * u[j];
-            g[i] = su + maps->bd[i];
-        }
+        matvec_add(maps->Bd, u, maps->bd, (int)nx, (int)nu, g);
         {
             const double *from = x;
             double *to = a;
             for (k = 0; k < n; k++) {
-                for (i = 0; i < nx; i++) {
-                    const double *ad = maps->Ad + i * nx;
-                    double sx = 0.0;
-                    for (j = 0; j < nx; j++) sx += ad[j] * from[j];
-                    to[i] = sx + g[i];
-                }
+                matvec_add(maps->Ad, from, g, (int)nx, (int)nx, to);
                 from = to;
                 to = (to == a) ? c : a;
             }
@@ -550,29 +593,54 @@ int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const d
 
 int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y)
 {
+    return ffx_lti_output_rows(maps, p, x, u, NULL, maps->model->ny, y);
+}
+
+int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, const double *u, const int *rows,
+                        int n_rows, double *y)
+{
     const ffx_lti_model *m = maps->model;
-    const int nx = m->nx, nu = m->nu, ny = m->ny;
+    const int nx = m->nx, nu = m->nu;
     double *z = maps->z;
-    int r, j, k, status;
+    int n, r, k, status, finite = 1;
+    if (n_rows < 0 || n_rows > m->ny) return FFX_LTI_BAD_ARGUMENT;
     status = ffx_lti_update_output_maps(maps, p);
     if (status != FFX_LTI_OK) {
-        for (r = 0; r < ny; r++) y[r] = NAN;
+        for (n = 0; n < n_rows; n++) y[rows ? rows[n] : n] = NAN;
         return status;
     }
-    for (r = 0; r < ny; r++) {
-        const double *cx = maps->Cx + (size_t)r * nx, *cu = maps->Cu + (size_t)r * nu;
-        double sx = 0.0, su = 0.0;
-        for (j = 0; j < nx; j++) sx += cx[j] * x[j];
-        for (j = 0; j < nu; j++) su += cu[j] * u[j];
-        y[r] = sx + su + maps->y0[r];
+    for (n = 0; n < n_rows; n++) {
+        r = rows ? rows[n] : n;
+        y[r] = dot(maps->Cx + (size_t)r * nx, x, nx) + dot(maps->Cu + (size_t)r * nu, u, nu) + maps->y0[r];
     }
     if (m->nquad > 0) {
         memcpy(z, x, (size_t)nx * sizeof(double));
         memcpy(z + nx, u, (size_t)nu * sizeof(double));     /* z[nx + nu ..] = mono(p_output), kept */
-        for (k = 0; k < m->nquad; k++)
-            y[m->quad_row[k]] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+        if (m->quad_start != NULL) {
+            /* each row's terms summed in a register, in the order of the general loop below (a store and reload
+               per term would make each add wait on the last) */
+            for (n = 0; n < n_rows; n++) {
+                double sum;
+                r = rows ? rows[n] : n;
+                sum = y[r];
+                for (k = m->quad_start[r]; k < m->quad_start[r + 1]; k++)
+                    sum += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+                y[r] = sum;
+            }
+        } else if (rows == NULL) {
+            for (k = 0; k < m->nquad; k++)
+                y[m->quad_row[k]] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+        } else {
+            for (n = 0; n < n_rows; n++) {
+                r = rows[n];
+                for (k = 0; k < m->nquad; k++)
+                    if (m->quad_row[k] == r) y[r] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+            }
+        }
     }
-    return all_finite(y, (size_t)ny) ? FFX_LTI_OK : FFX_LTI_NONFINITE;
+    for (n = 0; n < n_rows; n++)
+        if (!isfinite(y[rows ? rows[n] : n])) finite = 0;
+    return finite ? FFX_LTI_OK : FFX_LTI_NONFINITE;
 }
 
 const char *ffx_lti_status_string(int status)

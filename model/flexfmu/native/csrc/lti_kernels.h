@@ -53,6 +53,9 @@ typedef struct {
     int nquad;                     /* quadratic output terms y[row] += value * z[i] * z[j] */
     const int *quad_row, *quad_i, *quad_j;
     const double *quad_value;
+    const int *quad_start;         /* (ny + 1) or NULL: with the terms ordered by row, those of row r are
+                                      quad_start[r] .. quad_start[r + 1] - 1 (ffx_lti_quad_starts); output rows
+                                      alone then visit their own terms only */
 } ffx_lti_model;
 
 /* The maps of the last (p, h) (step) and the last p (outputs), in caller memory (ffx_lti_maps_init).  Read-only
@@ -74,8 +77,13 @@ typedef struct {
 } ffx_lti_maps;
 
 /* 0 (FFX_LTI_OK) if the model's sizes and quadratic-term indices are consistent (nmono, 0 <= rows < ny,
- * 0 <= i, j < nx + nu + nmono, non-null arrays where sizes are non-zero), else FFX_LTI_BAD_ARGUMENT. */
+ * 0 <= i, j < nx + nu + nmono, non-null arrays where sizes are non-zero, quad_start NULL or the row starts),
+ * else FFX_LTI_BAD_ARGUMENT. */
 int ffx_lti_check_model(const ffx_lti_model *m);
+
+/* quad_start (ny + 1) of m's terms when they are ordered by row (non-decreasing quad_row): returns 1; else 0
+ * (quad_start not valid: leave the model's NULL). */
+int ffx_lti_quad_starts(const ffx_lti_model *m, int *quad_start);
 
 /* mono[0 .. FFX_LTI_N_MONOMIALS(np) - 1] of p[0 .. np - 1] (order above). */
 void ffx_lti_monomials(int np, const double *p, double *mono);
@@ -131,6 +139,12 @@ int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const d
 /* y (ny) = Cx x + Cu u + y0 + the quadratic terms, with the output maps of p (updated as needed).  y is
  * written in any case; FFX_LTI_NONFINITE if an output is not finite. */
 int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y);
+
+/* The outputs of rows[0 .. n_rows - 1] only (distinct rows; rows NULL: rows 0 .. n_rows - 1), each with the same
+ * arithmetic as ffx_lti_outputs; the other places of y are not written.  What a host reads is computed, not every
+ * output: FFX_LTI_NONFINITE if a computed one is not finite. */
+int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, const double *u, const int *rows,
+                        int n_rows, double *y);
 
 /* A static English description of a return code. */
 const char *ffx_lti_status_string(int status);
