@@ -79,12 +79,12 @@ typedef struct {
 
 static const char *status_name(fmi2Status s) {
     switch (s) {
-        case fmi2OK: return "OK";
-        case fmi2Warning: return "Warning";
-        case fmi2Discard: return "Discard";
-        case fmi2Error: return "Error";
-        case fmi2Fatal: return "Fatal";
-        case fmi2Pending: return "Pending";
+    case fmi2OK: return "OK";
+    case fmi2Warning: return "Warning";
+    case fmi2Discard: return "Discard";
+    case fmi2Error: return "Error";
+    case fmi2Fatal: return "Fatal";
+    case fmi2Pending: return "Pending";
     }
     return "?";
 }
@@ -100,8 +100,7 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
         vsnprintf(text, sizeof text, message, args);
         va_end(args);
     }
-    fprintf(stderr, "[%s|%s|%s] %s\n", instance ? instance : "", status_name(status), category ? category : "",
-            text);
+    fprintf(stderr, "[%s|%s|%s] %s\n", instance ? instance : "", status_name(status), category ? category : "", text);
     fflush(stderr);
 }
 
@@ -123,15 +122,26 @@ static int load(Fmu *f) {
         fprintf(stderr, "dlopen: %s\n", dlerror());
         return 0;
     }
-#define SYMBOL(name)                                                                                  \
-    *(void **)(&f->name) = dlsym(f->lib, #name);                                                      \
-    if (!f->name) {                                                                                   \
-        fprintf(stderr, "%s: missing symbol %s\n", path, #name);                                     \
-        return 0;                                                                                     \
-    }
-    SYMBOL(fmi2Instantiate) SYMBOL(fmi2SetupExperiment) SYMBOL(fmi2EnterInitializationMode)
-    SYMBOL(fmi2ExitInitializationMode) SYMBOL(fmi2SetReal) SYMBOL(fmi2SetInteger) SYMBOL(fmi2SetBoolean)
-    SYMBOL(fmi2SetString) SYMBOL(fmi2GetReal) SYMBOL(fmi2DoStep) SYMBOL(fmi2Terminate) SYMBOL(fmi2FreeInstance)
+#define SYMBOL(name)                                                                                                   \
+    do {                                                                                                               \
+        *(void **)(&f->name) = dlsym(f->lib, #name);                                                                   \
+        if (!f->name) {                                                                                                \
+            fprintf(stderr, "%s: missing symbol %s\n", path, #name);                                                   \
+            return 0;                                                                                                  \
+        }                                                                                                              \
+    } while (0)
+    SYMBOL(fmi2Instantiate);
+    SYMBOL(fmi2SetupExperiment);
+    SYMBOL(fmi2EnterInitializationMode);
+    SYMBOL(fmi2ExitInitializationMode);
+    SYMBOL(fmi2SetReal);
+    SYMBOL(fmi2SetInteger);
+    SYMBOL(fmi2SetBoolean);
+    SYMBOL(fmi2SetString);
+    SYMBOL(fmi2GetReal);
+    SYMBOL(fmi2DoStep);
+    SYMBOL(fmi2Terminate);
+    SYMBOL(fmi2FreeInstance);
 #undef SYMBOL
     return 1;
 }
@@ -190,8 +200,8 @@ static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, in
             goto cleanup;
         }
         started = i + 1;
-        if (!CALL(f, fmi2SetupExperiment, fmi2False, 0.0, 0.0, fmi2False, 0.0) ||
-            !CALL0(f, fmi2EnterInitializationMode) || !set_start_values(f) || !CALL0(f, fmi2ExitInitializationMode)) {
+        if (!CALL(f, fmi2SetupExperiment, fmi2False, 0.0, 0.0, fmi2False, 0.0) || !CALL0(f, fmi2EnterInitializationMode)
+            || !set_start_values(f) || !CALL0(f, fmi2ExitInitializationMode)) {
             status = CALL_FAILED;
             goto cleanup;
         }
@@ -205,9 +215,9 @@ static int run_once(Fmu *fmus, int n_fmus, int run, double step, int n_steps, in
         for (int i = 0; i < n_fmus; i++) {
             Fmu *f = &fmus[i];
             for (int j = 0; j < f->n_pulse; j++) f->pulse_now[j] = t < f->pulse_until[j] ? f->pulse_value[j] : 0.0;
-            if ((f->n_in && !CALL(f, fmi2SetReal, f->in_vr, (size_t)f->n_in, f->in_value)) ||
-                (f->n_pulse && !CALL(f, fmi2SetReal, f->pulse_vr, (size_t)f->n_pulse, f->pulse_now)) ||
-                !CALL(f, fmi2DoStep, t, h, fmi2True)) {
+            if ((f->n_in && !CALL(f, fmi2SetReal, f->in_vr, (size_t)f->n_in, f->in_value))
+                || (f->n_pulse && !CALL(f, fmi2SetReal, f->pulse_vr, (size_t)f->n_pulse, f->pulse_now))
+                || !CALL(f, fmi2DoStep, t, h, fmi2True)) {
                 status = CALL_FAILED;
                 goto cleanup;
             }
@@ -244,9 +254,10 @@ cleanup:
 }
 
 static int usage(const char *program, const char *problem) {
-    fprintf(stderr, "%s\nusage: %s [--runs N] [--reload] [--quiet] [--clock-steps] STEP N_STEPS --fmu DIR ID GUID "
-                    "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]... "
-                    "[--output VR]... [--fmu ...]\n",
+    fprintf(stderr,
+            "%s\nusage: %s [--runs N] [--reload] [--quiet] [--clock-steps] STEP N_STEPS --fmu DIR ID GUID "
+            "[--set real|int|bool|string VR VALUE]... [--input VR VALUE]... [--pulse VR VALUE DURATION]... "
+            "[--output VR]... [--fmu ...]\n",
             problem, program);
     return USAGE;
 }
@@ -256,11 +267,16 @@ int main(int argc, char **argv) {
     int n_fmus = 0, runs = 1, reload = 0, quiet = 0, clock_steps = 0, arg = 1;
     memset(fmus, 0, sizeof fmus);
     for (; arg < argc && strncmp(argv[arg], "--", 2) == 0 && strcmp(argv[arg], "--fmu") != 0; arg++) {
-        if (strcmp(argv[arg], "--runs") == 0 && arg + 1 < argc) runs = atoi(argv[++arg]);
-        else if (strcmp(argv[arg], "--reload") == 0) reload = 1;
-        else if (strcmp(argv[arg], "--quiet") == 0) quiet = 1;
-        else if (strcmp(argv[arg], "--clock-steps") == 0) clock_steps = 1;
-        else return usage(argv[0], "unknown option");
+        if (strcmp(argv[arg], "--runs") == 0 && arg + 1 < argc)
+            runs = atoi(argv[++arg]);
+        else if (strcmp(argv[arg], "--reload") == 0)
+            reload = 1;
+        else if (strcmp(argv[arg], "--quiet") == 0)
+            quiet = 1;
+        else if (strcmp(argv[arg], "--clock-steps") == 0)
+            clock_steps = 1;
+        else
+            return usage(argv[0], "unknown option");
     }
     if (argc - arg < 2 || runs < 1) return usage(argv[0], "missing STEP N_STEPS");
     double step = strtod(argv[arg], NULL);
@@ -316,11 +332,17 @@ int main(int argc, char **argv) {
 
     int status = OK;
     for (int i = 0; i < n_fmus; i++)
-        if (!load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
+        if (!load(&fmus[i])) {
+            status = LOAD_FAILED;
+            goto unload;
+        }
     for (int run = 0; run < runs && status == OK; run++) {
         if (run > 0 && reload) {
             for (int i = 0; i < n_fmus; i++)
-                if (!unload(&fmus[i]) || !load(&fmus[i])) { status = LOAD_FAILED; goto unload; }
+                if (!unload(&fmus[i]) || !load(&fmus[i])) {
+                    status = LOAD_FAILED;
+                    goto unload;
+                }
         }
         status = run_once(fmus, n_fmus, run, step, n_steps, quiet, clock_steps);
     }

@@ -20,13 +20,16 @@ typedef void BridgeLog(void *context, int status, const char *category, const ch
 
 /* What the front read from resources/flexfmu_runtime.txt and the environment. */
 typedef struct {
-    const char *python_home;     /* the embedded interpreter's home (its standard library) */
-    const char *site_dirs;       /* ':'-separated folders added with site.addsitedir */
-    const char *python_version;  /* "3.11": the version the bridge was compiled for */
+    const char *python_home;    /* the embedded interpreter's home (its standard library) */
+    const char *site_dirs;      /* ':'-separated folders added with site.addsitedir */
+    const char *python_version; /* "3.11": the version the bridge was compiled for */
 } BridgeSettings;
 
 typedef enum {
-    CALL_ENTER_INITIALIZATION_MODE, CALL_EXIT_INITIALIZATION_MODE, CALL_TERMINATE, CALL_RESET
+    CALL_ENTER_INITIALIZATION_MODE,
+    CALL_EXIT_INITIALIZATION_MODE,
+    CALL_TERMINATE,
+    CALL_RESET
 } BridgeSimpleCall;
 
 typedef enum { VALUE_REAL, VALUE_INTEGER, VALUE_BOOLEAN, VALUE_STRING } BridgeValueType;

@@ -53,12 +53,38 @@ typedef enum {
 #define VALUES_WRITABLE (Instantiated | InitializationMode | StepComplete)
 
 typedef enum {
-    F_SetDebugLogging, F_SetupExperiment, F_EnterInitializationMode, F_ExitInitializationMode, F_Terminate,
-    F_Reset, F_FreeInstance, F_GetReal, F_GetInteger, F_GetBoolean, F_GetString, F_SetReal, F_SetInteger,
-    F_SetBoolean, F_SetString, F_GetFMUstate, F_SetFMUstate, F_FreeFMUstate, F_SerializedFMUstateSize,
-    F_SerializeFMUstate, F_DeSerializeFMUstate, F_GetDirectionalDerivative, F_SetRealInputDerivatives,
-    F_GetRealOutputDerivatives, F_DoStep, F_CancelStep, F_GetStatus, F_GetRealStatus, F_GetIntegerStatus,
-    F_GetBooleanStatus, F_GetStringStatus, F_COUNT
+    F_SetDebugLogging,
+    F_SetupExperiment,
+    F_EnterInitializationMode,
+    F_ExitInitializationMode,
+    F_Terminate,
+    F_Reset,
+    F_FreeInstance,
+    F_GetReal,
+    F_GetInteger,
+    F_GetBoolean,
+    F_GetString,
+    F_SetReal,
+    F_SetInteger,
+    F_SetBoolean,
+    F_SetString,
+    F_GetFMUstate,
+    F_SetFMUstate,
+    F_FreeFMUstate,
+    F_SerializedFMUstateSize,
+    F_SerializeFMUstate,
+    F_DeSerializeFMUstate,
+    F_GetDirectionalDerivative,
+    F_SetRealInputDerivatives,
+    F_GetRealOutputDerivatives,
+    F_DoStep,
+    F_CancelStep,
+    F_GetStatus,
+    F_GetRealStatus,
+    F_GetIntegerStatus,
+    F_GetBooleanStatus,
+    F_GetStringStatus,
+    F_COUNT
 } Function;
 
 /* The one legal-call table (docs/fmu.md prints it).  Unsupported capabilities have no legal state
@@ -90,12 +116,10 @@ static const struct {
     [F_SerializedFMUstateSize] = {"fmi2SerializedFMUstateSize", ALL_STATES, NULL},
     [F_SerializeFMUstate] = {"fmi2SerializeFMUstate", ALL_STATES, NULL},
     [F_DeSerializeFMUstate] = {"fmi2DeSerializeFMUstate", ALL_STATES, NULL},
-    [F_GetDirectionalDerivative] = {"fmi2GetDirectionalDerivative", 0,
-                                    "not supported (providesDirectionalDerivative is false)"},
-    [F_SetRealInputDerivatives] = {"fmi2SetRealInputDerivatives", 0,
-                                   "not supported (canInterpolateInputs is false)"},
-    [F_GetRealOutputDerivatives] = {"fmi2GetRealOutputDerivatives", 0,
-                                    "not supported (maxOutputDerivativeOrder is 0)"},
+    [F_GetDirectionalDerivative]
+    = {"fmi2GetDirectionalDerivative", 0, "not supported (providesDirectionalDerivative is false)"},
+    [F_SetRealInputDerivatives] = {"fmi2SetRealInputDerivatives", 0, "not supported (canInterpolateInputs is false)"},
+    [F_GetRealOutputDerivatives] = {"fmi2GetRealOutputDerivatives", 0, "not supported (maxOutputDerivativeOrder is 0)"},
     [F_DoStep] = {"fmi2DoStep", StepComplete, NULL},
     [F_CancelStep] = {"fmi2CancelStep", 0, "not supported: fmi2DoStep never returns fmi2Pending"},
     [F_GetStatus] = {"fmi2GetStatus", StepComplete | StepFailed | Terminated, NULL},
@@ -252,9 +276,12 @@ static int resources_path(const char *uri, char *path, size_t size) {
 /* "file:///a%20b/resources", "file:/...", "file://localhost/..." -> "/a b/resources" */
 static int resources_uri_path(const char *uri, char *path, size_t size) {
     const char *p = uri + 5;
-    if (strncmp(p, "///", 3) == 0) p += 2;
-    else if (strncmp(p, "//localhost/", 12) == 0) p += 11;
-    else if (strncmp(p, "//", 2) == 0) return -1; /* another host */
+    if (strncmp(p, "///", 3) == 0)
+        p += 2;
+    else if (strncmp(p, "//localhost/", 12) == 0)
+        p += 11;
+    else if (strncmp(p, "//", 2) == 0)
+        return -1; /* another host */
     size_t j = 0;
     for (; *p && j + 1 < size; p++) {
         unsigned int byte;
@@ -309,8 +336,10 @@ static void read_settings(const char *resources, RuntimeSettings *rs) {
         if (line[0] == '#' || !eq) continue;
         *eq = '\0';
         const char *key = line, *value = eq + 1;
-        if (strcmp(key, "libpython") == 0) snprintf(rs->libpython, sizeof rs->libpython, "%s", value);
-        else if (strcmp(key, "python_home") == 0) snprintf(rs->python_home, sizeof rs->python_home, "%s", value);
+        if (strcmp(key, "libpython") == 0)
+            snprintf(rs->libpython, sizeof rs->libpython, "%s", value);
+        else if (strcmp(key, "python_home") == 0)
+            snprintf(rs->python_home, sizeof rs->python_home, "%s", value);
         else if (strcmp(key, "python_version") == 0)
             snprintf(rs->python_version, sizeof rs->python_version, "%s", value);
         else if (strcmp(key, "site") == 0) {
@@ -334,7 +363,8 @@ static const BridgeApi *load_bridge(const char *resources) {
         if (!rs.libpython[0]) {
             snprintf(load_error, sizeof load_error,
                      "no libpython recorded in %s/flexfmu_runtime.txt; set FLEXFMU_LIBPYTHON to a "
-                     "libpython%s.so", resources, rs.python_version);
+                     "libpython%s.so",
+                     resources, rs.python_version);
             goto done;
         }
         if (!dlopen(rs.libpython, RTLD_NOW | RTLD_GLOBAL)) {
@@ -439,8 +469,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     char resources[4096];
     if (resources_path(fmuResourceLocation, resources, sizeof resources) < 0) {
-        fail(inst, "fmi2Instantiate", "fmuResourceLocation: neither it (a file:/// URI) nor the folder next to "
-                                      "this binary holds the FMU's resources (resources/flexfmu_build.json)");
+        fail(inst, "fmi2Instantiate",
+             "fmuResourceLocation: neither it (a file:/// URI) nor the folder next to "
+             "this binary holds the FMU's resources (resources/flexfmu_build.json)");
         free_instance_memory(inst);
         return NULL;
     }
@@ -469,8 +500,8 @@ void fmi2FreeInstance(fmi2Component c) {
 
 /* ---- FMI 2.0: initialisation, termination, reset ----------------------------------------------- */
 
-fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
-                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     fmi2Status refused;
     Instance *inst = enter(c, F_SetupExperiment, &refused);
     if (!inst) return refused;
@@ -610,8 +641,10 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     StateBox *box = box_of(FMUstate);
     if (!box) return leave(inst, fail(inst, "fmi2SetFMUstate", "FMUstate is not a state of this FMU (or was freed)"));
     int status = inst->bridge->set_state(inst->slave, box->python);
-    if (status <= fmi2Warning) inst->state = box->fmi_state;
-    else if (status >= fmi2Error) inst->state = Error;
+    if (status <= fmi2Warning)
+        inst->state = box->fmi_state;
+    else if (status >= fmi2Error)
+        inst->state = Error;
     return leave(inst, status);
 }
 
@@ -712,8 +745,8 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
 /* ---- FMI 2.0: what these FMUs do not provide --------------------------------------------------- */
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
-                                        const fmi2ValueReference vKnown_ref[], size_t nKnown,
-                                        const fmi2Real dvKnown[], fmi2Real dvUnknown[]) {
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[]) {
     (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
     fmi2Status refused;
     enter(c, F_GetDirectionalDerivative, &refused);
@@ -757,8 +790,10 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
         status = fail(inst, "fmi2DoStep", "communicationStepSize must be finite and > 0 s");
     else
         status = inst->bridge->do_step(inst->slave, currentCommunicationPoint, communicationStepSize);
-    if (status == fmi2Discard) inst->state = StepFailed;
-    else if (status >= fmi2Error) inst->state = Error;
+    if (status == fmi2Discard)
+        inst->state = StepFailed;
+    else if (status >= fmi2Error)
+        inst->state = Error;
     return leave(inst, status);
 }
 

@@ -208,7 +208,8 @@ static NativeFile *parse_file(const unsigned char *bytes, size_t size, const cha
         snprintf(why, why_size,
                  "%s has model-file format version %u, but this FMU's runtime reads version %u: its binary and its "
                  "resources come from different flexfmu builds; rebuild the FMU (flexfmu build --runtime native, "
-                 "flexfmu export ... --runtime native)", path, (unsigned)version, FILE_VERSION);
+                 "flexfmu export ... --runtime native)",
+                 path, (unsigned)version, FILE_VERSION);
         return NULL;
     }
     NativeFile *file = calloc(1, sizeof *file);
@@ -327,8 +328,10 @@ static int typed(const NativeFile *file, const char *name, int type, int ndim, c
         char expected[160] = "", got[160] = "";
         for (int d = 0; d < ndim; d++) {
             size_t used = strlen(expected);
-            if (shape && shape[d] >= 0) snprintf(expected + used, sizeof expected - used, "%s%ld", d ? ", " : "", shape[d]);
-            else snprintf(expected + used, sizeof expected - used, "%s*", d ? ", " : "");
+            if (shape && shape[d] >= 0)
+                snprintf(expected + used, sizeof expected - used, "%s%ld", d ? ", " : "", shape[d]);
+            else
+                snprintf(expected + used, sizeof expected - used, "%s*", d ? ", " : "");
         }
         for (int d = 0; d < e->ndim; d++) {
             size_t used = strlen(got);
@@ -370,9 +373,9 @@ static char *const *file_strings(const NativeFile *file, const char *name, long 
 typedef struct {
     const char *name;
     int type, causality;
-    int index;            /* input / output / runtime-parameter index; -1: a parameter fixed at build */
-    double start;         /* start (build) value of a Real, Integer or Boolean variable */
-    const char *text;     /* start (build) value of a String */
+    int index;        /* input / output / runtime-parameter index; -1: a parameter fixed at build */
+    double start;     /* start (build) value of a Real, Integer or Boolean variable */
+    const char *text; /* start (build) value of a String */
 } Variable;
 
 typedef struct {
@@ -385,7 +388,7 @@ typedef struct {
 typedef struct {
     NativeFile *file;
     const NativeKind *kind;
-    void *model;          /* the kind's */
+    void *model; /* the kind's */
     NativeLayout layout;
     const char *guid, *name, *rebuild, *divergence_allowed;
     size_t n_vars, nx, n_messages, n_rebuild;
@@ -405,8 +408,8 @@ typedef struct {
     int initialised;
     unsigned char *valid; /* per output */
     double time, start_time;
-    double *values;       /* per variable: parameters' and inputs' values (outputs, strings: 0) */
-    double *held;         /* the inputs the kind got at the last step (or initialisation) */
+    double *values; /* per variable: parameters' and inputs' values (outputs, strings: 0) */
+    double *held;   /* the inputs the kind got at the last step (or initialisation) */
     double *outputs;
     double *x;
 } Snapshot;
@@ -414,11 +417,11 @@ typedef struct {
 typedef struct {
     Model m;
     Snapshot now;
-    void *sim;            /* the kind's simulator; NULL before fmi2ExitInitializationMode */
-    double *params;       /* the runtime parameters as the simulator got them (special values replaced) */
+    void *sim;      /* the kind's simulator; NULL before fmi2ExitInitializationMode */
+    double *params; /* the runtime parameters as the simulator got them (special values replaced) */
     double *scratch_x, *scratch_y;
     unsigned char *scratch_which; /* per output: asked of the kind, then written by it */
-    double *state_held;   /* the inputs the current state's step held (at initialisation: those held then; after a
+    double *state_held; /* the inputs the current state's step held (at initialisation: those held then; after a
                              restore: the state's); a refused step leaves it (NativeKind.step_held) */
     BridgeLog *log;
     void *context;
@@ -444,20 +447,25 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
     if (!(m->file = read_file(path, why, why_size))) return -1;
     NativeFile *f = m->file;
     const char *kind = file_string(f, "kind", why, why_size);
-    if (!kind || !(m->guid = file_string(f, "guid", why, why_size)) || !(m->name = file_string(f, "model", why, why_size))
+    if (!kind || !(m->guid = file_string(f, "guid", why, why_size))
+        || !(m->name = file_string(f, "model", why, why_size))
         || !(m->rebuild = file_string(f, "rebuild", why, why_size))
         || !(m->divergence_allowed = file_string(f, "divergence_allowed", why, why_size)))
         return -1;
     if (strcmp(guid, m->guid) != 0) {
-        snprintf(why, why_size, "fmuGUID '%s' is not this FMU's ('%s'): the host read another modelDescription.xml "
-                                "than this binary's", guid, m->guid);
+        snprintf(why, why_size,
+                 "fmuGUID '%s' is not this FMU's ('%s'): the host read another modelDescription.xml "
+                 "than this binary's",
+                 guid, m->guid);
         return -1;
     }
     for (size_t k = 0; k < sizeof KINDS / sizeof *KINDS; k++)
         if (strcmp(KINDS[k]->name, kind) == 0) m->kind = KINDS[k];
     if (!m->kind) {
-        snprintf(why, why_size, "the model is of kind '%s', which this runtime does not have (rebuild the FMU with "
-                                "the flexfmu that wrote it)", kind);
+        snprintf(why, why_size,
+                 "the model is of kind '%s', which this runtime does not have (rebuild the FMU with "
+                 "the flexfmu that wrote it)",
+                 kind);
         return -1;
     }
     const void *names_data;
@@ -506,8 +514,9 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
     for (size_t i = 0; i < m->n_vars; i++) { /* every index used exactly once */
         Variable *v = &m->vars[i];
         if (v->causality == PARAMETER && v->index < 0) continue;
-        const char **slot = v->causality == INPUT ? m->input_names : v->causality == OUTPUT ? m->output_names
-                                                                                           : m->param_names;
+        const char **slot = v->causality == INPUT    ? m->input_names
+                            : v->causality == OUTPUT ? m->output_names
+                                                     : m->param_names;
         if ((size_t)v->index >= counts[v->causality] || slot[v->index]) {
             snprintf(why, why_size, "model file: variable %s has a bad index %d", v->name, v->index);
             return -1;
@@ -669,8 +678,10 @@ static int check_parameters(Slave *s, const double *values, double *params) {
                  && ((r->flags & HI_OPEN) ? value < r->hi : value <= r->hi);
         if (!ok) {
             char shown[64];
-            if (v->type == INTEGER) snprintf(shown, sizeof shown, "%d", (int)value);
-            else native_repr(value, shown, sizeof shown);
+            if (v->type == INTEGER)
+                snprintf(shown, sizeof shown, "%d", (int)value);
+            else
+                native_repr(value, shown, sizeof shown);
             return refuse(s, BRIDGE_ERROR, "%s: got %s (allowed: %s)", v->name, shown, r->allowed);
         }
     }
@@ -682,8 +693,9 @@ static void *make_sim(Slave *s, const double *values, double *x) {
     if (check_parameters(s, values, s->params) != BRIDGE_OK) return NULL;
     NativeResult r = new_result(s);
     void *sim = s->m.kind->init(s->m.model, s->params, x, &r);
-    if (!sim) refuse(s, r.status >= BRIDGE_DISCARD ? r.status : BRIDGE_ERROR, "%s",
-                     r.message[0] ? r.message : "the model cannot be set up (out of memory?)");
+    if (!sim)
+        refuse(s, r.status >= BRIDGE_DISCARD ? r.status : BRIDGE_ERROR, "%s",
+               r.message[0] ? r.message : "the model cannot be set up (out of memory?)");
     return sim;
 }
 
@@ -721,12 +733,15 @@ static int compute_outputs(Slave *s, double *y, unsigned char *which) {
         bad_outputs(s, y, which, names, sizeof names);
         int j = m->kind->culprit(s->sim, 1, now->x, now->held, 1e300);
         if (j >= 0)
-            return refuse(s, BRIDGE_ERROR, "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: "
-                                           "inputs within the model's range", m->input_names[j], now->held[j],
-                          names, now->start_time + now->time);
+            return refuse(s, BRIDGE_ERROR,
+                          "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: "
+                          "inputs within the model's range",
+                          m->input_names[j], now->held[j], names, now->start_time + now->time);
         time_text(now->start_time + now->time, t, sizeof t);
-        return refuse(s, BRIDGE_ERROR, "%s: not finite at t = %s s (the inputs or parameters drive the model beyond "
-                                       "its range)", names, t);
+        return refuse(s, BRIDGE_ERROR,
+                      "%s: not finite at t = %s s (the inputs or parameters drive the model beyond "
+                      "its range)",
+                      names, t);
     }
     if (status != BRIDGE_OK) return refuse(s, status, "outputs: %s", r.message);
     return BRIDGE_OK;
@@ -739,7 +754,7 @@ static int read_outputs(Slave *s) {
     const Model *m = &s->m;
     unsigned char *which = s->scratch_which;
     if (!s->sim) return BRIDGE_OK; /* before initialisation: the start values */
-    double *y = s->scratch_y; /* the kind writes what it computes here; kept only if all of it is finite */
+    double *y = s->scratch_y;      /* the kind writes what it computes here; kept only if all of it is finite */
     int status = compute_outputs(s, y, which);
     if (status != BRIDGE_OK) return status;
     for (size_t i = 0; i < m->layout.n_outputs; i++)
@@ -855,15 +870,18 @@ static int do_step(void *slave, double current_time, double h) {
     Snapshot *now = &s->now;
     const Model *m = &s->m;
     if (!s->sim) /* the front allows fmi2DoStep in StepComplete only; a crafted state could disagree */
-        return refuse(s, BRIDGE_ERROR, "fmi2DoStep: the instance is not initialised (its FMU state was taken before "
-                                       "fmi2ExitInitializationMode)");
+        return refuse(s, BRIDGE_ERROR,
+                      "fmi2DoStep: the instance is not initialised (its FMU state was taken before "
+                      "fmi2ExitInitializationMode)");
     double t_now = now->start_time + now->time;
     if (fabs(current_time - t_now) > TIME_RTOL * fmax(1.0, fabs(t_now))) {
         char got[64], expected[64];
         native_repr(current_time, got, sizeof got);
         native_repr(t_now, expected, sizeof expected);
-        return refuse(s, BRIDGE_ERROR, "currentCommunicationPoint: got %s s, expected the FMU's time %s s (roll back "
-                                       "with fmi2SetFMUstate to step from another time)", got, expected);
+        return refuse(s, BRIDGE_ERROR,
+                      "currentCommunicationPoint: got %s s, expected the FMU's time %s s (roll back "
+                      "with fmi2SetFMUstate to step from another time)",
+                      got, expected);
     }
     for (size_t j = 0; j < m->layout.n_inputs; j++) now->held[j] = now->values[m->input_vr[j]];
     memset(now->valid, 0, m->layout.n_outputs); /* from here on the outputs are those of another state */
@@ -892,19 +910,21 @@ static int do_step(void *slave, double current_time, double h) {
     if (status == NATIVE_NOT_FINITE) {
         int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
         if (j >= 0)
-            return refuse(s, BRIDGE_ERROR, "%s: %.6g makes the state overflow (not finite) at t = %.6g s: the state "
-                                           "diverged; allowed: inputs within the model's range", m->input_names[j],
-                          now->held[j], t);
-        return refuse(s, BRIDGE_ERROR, "state: the state overflows (not finite) at t = %.6g s: the state diverged",
-                      t);
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: %.6g makes the state overflow (not finite) at t = %.6g s: the state "
+                          "diverged; allowed: inputs within the model's range",
+                          m->input_names[j], now->held[j], t);
+        return refuse(s, BRIDGE_ERROR, "state: the state overflows (not finite) at t = %.6g s: the state diverged", t);
     }
     if (status != BRIDGE_OK) return refuse(s, status, "%s", r.message);
     if (size > m->divergence_limit) {
         int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
         if (j >= 0)
-            return refuse(s, BRIDGE_ERROR, "%s: diverged at t = %.6g s (state norm %.3g): %s = %.6g alone moves it "
-                                           "beyond %g (allowed: %s)", m->input_names[j], t, size, m->input_names[j],
-                          now->held[j], m->divergence_limit, m->divergence_allowed);
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: diverged at t = %.6g s (state norm %.3g): %s = %.6g alone moves it "
+                          "beyond %g (allowed: %s)",
+                          m->input_names[j], t, size, m->input_names[j], now->held[j], m->divergence_limit,
+                          m->divergence_allowed);
         return refuse(s, BRIDGE_ERROR, "state: diverged at t = %.6g s (state norm %.3g) (allowed: %s)", t, size,
                       m->divergence_allowed);
     }
@@ -930,8 +950,10 @@ static int refuse_reference(Slave *s, const char *function, BridgeValueType type
         if (setting && v->causality == OUTPUT)
             return refuse(s, BRIDGE_ERROR, "%s: '%s' is an output; outputs cannot be set", function, v->name);
         if (setting && v->causality == PARAMETER && s->sim)
-            return refuse(s, BRIDGE_ERROR, "%s: %s: a fixed parameter can be set only before "
-                                           "fmi2ExitInitializationMode", function, v->name);
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: %s: a fixed parameter can be set only before "
+                          "fmi2ExitInitializationMode",
+                          function, v->name);
     }
     return BRIDGE_OK;
 }
@@ -1046,17 +1068,18 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
                 shown_value(v, value, text, 1, got, sizeof got);
                 shown_value(v, value, text, 0, plain, sizeof plain);
                 rebuild_command(&s->m, v->name, plain, command, sizeof command);
-                return refuse(s, BRIDGE_ERROR, "%s: %s: got %s, but this native FMU was built with %s = %s, fixed at "
-                                               "build; to use another value rebuild it: %s (or use the Python runtime, "
-                                               "where it is a parameter)", function, v->name, got, v->name, built,
-                              command);
+                return refuse(s, BRIDGE_ERROR,
+                              "%s: %s: got %s, but this native FMU was built with %s = %s, fixed at "
+                              "build; to use another value rebuild it: %s (or use the Python runtime, "
+                              "where it is a parameter)",
+                              function, v->name, got, v->name, built, command);
             }
         }
     }
     for (size_t i = 0; i < nvr; i++) {
         const Variable *v = &s->m.vars[vr[i]];
         if (type == VALUE_STRING) continue; /* fixed strings: equal to the build value, checked above */
-        double value = type == VALUE_REAL ? ((const double *)values)[i]
+        double value = type == VALUE_REAL      ? ((const double *)values)[i]
                        : type == VALUE_INTEGER ? (double)((const int *)values)[i]
                                                : (double)(((const int *)values)[i] != 0);
         if (v->causality != PARAMETER || v->index >= 0) s->now.values[vr[i]] = value;
@@ -1134,8 +1157,10 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
         *size = n;
         return BRIDGE_OK;
     }
-    if (*size < n) return refuse(s, BRIDGE_ERROR, "fmi2SerializeFMUstate: the buffer is smaller than "
-                                                  "fmi2SerializedFMUstateSize said");
+    if (*size < n)
+        return refuse(s, BRIDGE_ERROR,
+                      "fmi2SerializeFMUstate: the buffer is smaller than "
+                      "fmi2SerializedFMUstateSize said");
     unsigned char *b = (unsigned char *)bytes;
     memcpy(b, STATE_MAGIC, 8);
     put32(b + 8, STATE_VERSION);
@@ -1145,8 +1170,8 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
     put32(b + 24, (uint32_t)m->nx);
     int cheap_valid = 1, deferred_valid = 1;
     for (size_t i = 0; i < m->layout.n_outputs; i++) *(m->deferred[i] ? &deferred_valid : &cheap_valid) &= st->valid[i];
-    put32(b + 28, (uint32_t)((st->initialised ? 1 : 0) | (cheap_valid ? 2 : 0)
-                             | (cheap_valid && deferred_valid ? 4 : 0)));
+    put32(b + 28,
+          (uint32_t)((st->initialised ? 1 : 0) | (cheap_valid ? 2 : 0) | (cheap_valid && deferred_valid ? 4 : 0)));
     unsigned char *at = b + 32;
     put_f64(at, st->time), at += 8;
     put_f64(at, st->start_time), at += 8;
@@ -1171,8 +1196,9 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     if (le32(b + 12) != m->n_vars || le32(b + 16) != m->layout.n_inputs || le32(b + 20) != m->layout.n_outputs
         || le32(b + 24) != m->nx)
         return refuse(s, BRIDGE_ERROR, "%s (its sizes are another model's)", prefix);
-    if (size != serialized_size(m)) return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected %zu)",
-                                                  prefix, size, serialized_size(m));
+    if (size != serialized_size(m))
+        return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected %zu)", prefix, size,
+                      serialized_size(m));
     uint32_t flags = le32(b + 28);
     if (flags > 7) return refuse(s, BRIDGE_ERROR, "%s (bad flags)", prefix);
     Snapshot *st = malloc(sizeof *st);
@@ -1195,14 +1221,18 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     if (!isfinite(st->time) || !isfinite(st->start_time)) bad = "time not finite";
     for (size_t i = 0; !bad && i < m->n_vars; i++) {
         const Variable *v = &m->vars[i];
-        if (!isfinite(st->values[i])) bad = "a value is not finite";
+        if (!isfinite(st->values[i]))
+            bad = "a value is not finite";
         else if (v->causality == PARAMETER && v->index < 0 && v->type != STRING && st->values[i] != v->start)
             bad = "its fixed parameters are another build's";
     }
-    for (size_t i = 0; !bad && i < m->layout.n_inputs; i++) if (!isfinite(st->held[i])) bad = "held inputs not finite";
-    for (size_t i = 0; !bad && i < m->layout.n_outputs; i++) if (!isfinite(st->outputs[i])) bad = "outputs not finite";
+    for (size_t i = 0; !bad && i < m->layout.n_inputs; i++)
+        if (!isfinite(st->held[i])) bad = "held inputs not finite";
+    for (size_t i = 0; !bad && i < m->layout.n_outputs; i++)
+        if (!isfinite(st->outputs[i])) bad = "outputs not finite";
     for (size_t i = 0; !bad && i < m->nx; i++)
-        if (!(fabs(st->x[i]) <= m->divergence_limit)) bad = "the state vector is not finite or beyond the divergence limit";
+        if (!(fabs(st->x[i]) <= m->divergence_limit))
+            bad = "the state vector is not finite or beyond the divergence limit";
     if (bad) {
         free_state(st);
         return refuse(s, BRIDGE_ERROR, "%s (%s)", prefix, bad);
@@ -1218,8 +1248,20 @@ static int last_successful_time(void *slave, double *time) {
 }
 
 static const BridgeApi API = {
-    FLEXFMU_BRIDGE_VERSION, start, instantiate, free_instance, setup_experiment, simple_call, do_step,
-    get_values, set_values, get_state, set_state, free_state, serialize_state, deserialize_state,
+    FLEXFMU_BRIDGE_VERSION,
+    start,
+    instantiate,
+    free_instance,
+    setup_experiment,
+    simple_call,
+    do_step,
+    get_values,
+    set_values,
+    get_state,
+    set_state,
+    free_state,
+    serialize_state,
+    deserialize_state,
     last_successful_time,
 };
 

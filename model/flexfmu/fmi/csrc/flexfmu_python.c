@@ -25,9 +25,9 @@
 #define EXPORT __attribute__((visibility("default")))
 
 typedef struct {
-    PyObject *plumbing;      /* flexfmu.fmi.plumbing.Plumbing */
-    PyObject *messages;      /* its message queue: a list of (status, category, text) */
-    PyObject *strings;       /* keeps the bytes behind get_string's pointers until the next call */
+    PyObject *plumbing; /* flexfmu.fmi.plumbing.Plumbing */
+    PyObject *messages; /* its message queue: a list of (status, category, text) */
+    PyObject *strings;  /* keeps the bytes behind get_string's pointers until the next call */
     BridgeLog *log;
     void *context;
 } Slave;
@@ -72,8 +72,8 @@ static int report_exception(BridgeLog *log, void *context, const char *what) {
         snprintf(buffer, sizeof buffer, "%s", message ? message : "(no message)");
     } else {
         const char *name = type ? ((PyTypeObject *)type)->tp_name : "unknown exception";
-        snprintf(buffer, sizeof buffer, "%s: internal error: %s: %s (please report this with the FMU's log)",
-                 what, name, message ? message : "");
+        snprintf(buffer, sizeof buffer, "%s: internal error: %s: %s (please report this with the FMU's log)", what,
+                 name, message ? message : "");
     }
     log(context, status, status == BRIDGE_DISCARD ? "logStatusDiscard" : "logStatusError", buffer);
     Py_XDECREF(fmi_status);
@@ -126,8 +126,8 @@ static int start(const BridgeSettings *settings, char *error, size_t error_size)
     if (strncmp(running, compiled, n) != 0 || (running[n] != '.' && running[n] != ' ' && running[n] != '+')) {
         snprintf(error, error_size,
                  "this FMU's Python bridge was built for Python %s, but the process runs Python %.20s; "
-                 "rebuild the FMU with that Python, or point FLEXFMU_LIBPYTHON at a libpython %s", compiled,
-                 running, compiled);
+                 "rebuild the FMU with that Python, or point FLEXFMU_LIBPYTHON at a libpython %s",
+                 compiled, running, compiled);
         return -1;
     }
     if (Py_IsInitialized()) return 0; /* a Python host, or another FMU started it */
@@ -194,8 +194,10 @@ static PyObject *load_factory(const char *resources_dir) {
     Py_XDECREF(result);
     PyObject *load = globals ? PyDict_GetItemString(globals, "load") : NULL; /* borrowed */
     PyObject *made_factory = NULL;
-    if (!PyErr_Occurred() && load) made_factory = PyObject_CallFunction(load, "s", resources_dir);
-    else if (!PyErr_Occurred()) PyErr_SetString(PyExc_RuntimeError, "flexfmu_loader.py defines no load()");
+    if (!PyErr_Occurred() && load)
+        made_factory = PyObject_CallFunction(load, "s", resources_dir);
+    else if (!PyErr_Occurred())
+        PyErr_SetString(PyExc_RuntimeError, "flexfmu_loader.py defines no load()");
     Py_DECREF(code);
     Py_XDECREF(globals);
     if (!made_factory) return NULL;
@@ -267,8 +269,8 @@ static int setup_experiment(void *slave, int tolerance_defined, double tolerance
 
 static int simple_call(void *slave, BridgeSimpleCall call) {
     static const char *methods[] = {"enter_initialization_mode", "exit_initialization_mode", "terminate", "reset"};
-    static const char *names[] = {"fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate",
-                                  "fmi2Reset"};
+    static const char *names[]
+        = {"fmi2EnterInitializationMode", "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset"};
     Slave *s = slave;
     PyGILState_STATE gil = PyGILState_Ensure();
     int status = finish(s, PyObject_CallMethod(s->plumbing, methods[call], NULL), names[call]);
@@ -312,13 +314,9 @@ static int store_values(Slave *s, BridgeValueType type, PyObject *list, size_t n
     for (size_t i = 0; i < nvr; i++) {
         PyObject *item = PyList_GET_ITEM(list, (Py_ssize_t)i);
         switch (type) {
-        case VALUE_REAL:
-            ((double *)values)[i] = PyFloat_AsDouble(item);
-            break;
+        case VALUE_REAL: ((double *)values)[i] = PyFloat_AsDouble(item); break;
         case VALUE_INTEGER:
-        case VALUE_BOOLEAN:
-            ((int *)values)[i] = (int)PyLong_AsLong(item);
-            break;
+        case VALUE_BOOLEAN: ((int *)values)[i] = (int)PyLong_AsLong(item); break;
         case VALUE_STRING: {
             PyObject *bytes = PyUnicode_AsUTF8String(item);
             if (!bytes) return -1;
@@ -394,8 +392,8 @@ static int get_state(void *slave, void **state) {
 static int set_state(void *slave, void *state) {
     Slave *s = slave;
     PyGILState_STATE gil = PyGILState_Ensure();
-    int status = finish(s, PyObject_CallMethod(s->plumbing, "set_fmu_state", "O", (PyObject *)state),
-                        "fmi2SetFMUstate");
+    int status
+        = finish(s, PyObject_CallMethod(s->plumbing, "set_fmu_state", "O", (PyObject *)state), "fmi2SetFMUstate");
     PyGILState_Release(gil);
     return status;
 }
@@ -453,8 +451,20 @@ static int last_successful_time(void *slave, double *time) {
 }
 
 static const BridgeApi API = {
-    FLEXFMU_BRIDGE_VERSION, start, instantiate, free_instance, setup_experiment, simple_call, do_step,
-    get_values, set_values, get_state, set_state, free_state, serialize_state, deserialize_state,
+    FLEXFMU_BRIDGE_VERSION,
+    start,
+    instantiate,
+    free_instance,
+    setup_experiment,
+    simple_call,
+    do_step,
+    get_values,
+    set_values,
+    get_state,
+    set_state,
+    free_state,
+    serialize_state,
+    deserialize_state,
     last_successful_time,
 };
 

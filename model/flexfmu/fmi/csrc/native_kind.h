@@ -46,11 +46,11 @@ enum { NATIVE_F64 = 1, NATIVE_I32 = 2, NATIVE_STR = 3 };
 
 typedef struct {
     char *name;
-    int type;                           /* NATIVE_F64, NATIVE_I32, NATIVE_STR */
-    int ndim;                           /* 0: a scalar */
+    int type; /* NATIVE_F64, NATIVE_I32, NATIVE_STR */
+    int ndim; /* 0: a scalar */
     uint32_t shape[NATIVE_MAX_DIMS];
-    size_t count;                       /* product of shape (1 for a scalar) */
-    void *data;                         /* double[count], int32_t[count] or char *[count] (NUL-terminated) */
+    size_t count; /* product of shape (1 for a scalar) */
+    void *data;   /* double[count], int32_t[count] or char *[count] (NUL-terminated) */
 } NativeEntry;
 
 typedef struct NativeFile NativeFile;
@@ -69,7 +69,7 @@ int native_i32(const NativeFile *file, const char *name, int ndim, const long *s
 /* ---- what a kind sees of the FMU -------------------------------------------------------------- */
 
 typedef struct {
-    size_t n_inputs, n_outputs, n_params;  /* params: the runtime parameters (settable until initialisation) */
+    size_t n_inputs, n_outputs, n_params; /* params: the runtime parameters (settable until initialisation) */
     const char *const *input_names;
     const char *const *output_names;
     const char *const *param_names;
@@ -101,8 +101,7 @@ typedef struct {
     void (*free_sim)(void *sim);
     int (*step)(void *sim, double *x, const double *u, double t, double h, NativeResult *result);
     /* which (n_outputs): in, the outputs to compute; out, the outputs written into y (at least those asked) */
-    int (*outputs)(void *sim, const double *x, const double *u, double *y, unsigned char *which,
-                   NativeResult *result);
+    int (*outputs)(void *sim, const double *x, const double *u, double *y, unsigned char *which, NativeResult *result);
     /* what: 0 the state after the last step (from x with u): the input whose contribution alone is above
        `threshold` (the largest), else -1; 1 the outputs of x with u: the input that alone overflows them, else
        the largest contributor, -1 when all inputs are 0 */

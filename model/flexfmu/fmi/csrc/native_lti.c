@@ -37,7 +37,7 @@ typedef struct {
     const int32_t *u_from_input, *p_from_input, *p_param, *y_to_output;
     const double *p_start;
     int internal_step, max_internal_steps, log_split;
-    int *quadratic;      /* per p_k: appears in a degree-2 monomial with a non-zero coefficient */
+    int *quadratic; /* per p_k: appears in a degree-2 monomial with a non-zero coefficient */
     int *quad_row, *quad_i, *quad_j, *quad_start;
 } LtiModel;
 
@@ -45,10 +45,10 @@ typedef struct {
     const LtiModel *m;
     ffx_lti_maps maps;
     double *work, *p, *u, *y, *params;
-    int *rows;           /* the y_k asked for (outputs) */
+    int *rows; /* the y_k asked for (outputs) */
     double internal_step;
     long cap, last_split;
-    double last_h;       /* internal step of the last step (for the culprit) */
+    double last_h; /* internal step of the last step (for the culprit) */
 } LtiSim;
 
 static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
@@ -125,8 +125,8 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
         goto fail;
     }
     for (long k = 0; k < nquad; k++) m->quad_row[k] = quad_row[k], m->quad_i[k] = quad_i[k], m->quad_j[k] = quad_j[k];
-    m->kernel = (ffx_lti_model){(int)nx, (int)nu, (int)ny, (int)np, (int)nmono, A, B, b, Cx, Cu, y0, (int)nquad,
-                                m->quad_row, m->quad_i, m->quad_j, quad_value, NULL};
+    m->kernel = (ffx_lti_model){(int)nx, (int)nu, (int)ny,    (int)np,     (int)nmono, A,         B,          b,   Cx,
+                                Cu,      y0,      (int)nquad, m->quad_row, m->quad_i,  m->quad_j, quad_value, NULL};
     for (long q = 0; q < nquad; q++) /* ffx_lti_quad_starts reads the rows: checked first */
         if (quad_row[q] < 0 || quad_row[q] >= ny) goto bad_index;
     if (ffx_lti_quad_starts(&m->kernel, m->quad_start)) m->kernel.quad_start = m->quad_start; /* rows alone */
@@ -136,8 +136,8 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     }
     /* which p enter squared (for naming the culprit of an overflow: the spin enters squared) */
     long k = 1 + np;
-    size_t sizes[6] = {(size_t)(nx * nx), (size_t)(nx * nu), (size_t)nx, (size_t)(ny * nx), (size_t)(ny * nu),
-                       (size_t)ny};
+    size_t sizes[6]
+        = {(size_t)(nx * nx), (size_t)(nx * nu), (size_t)nx, (size_t)(ny * nx), (size_t)(ny * nu), (size_t)ny};
     const double *arrays[6] = {A, B, b, Cx, Cu, y0};
     for (long i = 0; i < np; i++)
         for (long j = i; j < np; j++, k++)
@@ -207,8 +207,9 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     s->internal_step = m->internal_step >= 0 ? params[m->internal_step] : 0.0;
     s->cap = m->max_internal_steps >= 0 ? (long)params[m->max_internal_steps] : 0;
     if (s->cap > 0 && s->internal_step > 0 && s->internal_step < MIN_COMMUNICATION_STEP / (double)s->cap) {
-        native_refuse(r, BRIDGE_ERROR, "internal_step: %g s needs more than max_internal_steps = %ld for a %g s "
-                                       "communication step (allowed: 0 (one exact step) or >= %.3g s)",
+        native_refuse(r, BRIDGE_ERROR,
+                      "internal_step: %g s needs more than max_internal_steps = %ld for a %g s "
+                      "communication step (allowed: 0 (one exact step) or >= %.3g s)",
                       s->internal_step, s->cap, MIN_COMMUNICATION_STEP, MIN_COMMUNICATION_STEP / (double)s->cap);
         free_sim(s);
         return NULL;
@@ -245,16 +246,22 @@ static long split(LtiSim *s, double t, double h, NativeResult *r) {
         if (!(ratio <= (double)s->cap)) {
             double h_ok = (double)s->cap * s->internal_step;
             char count[64];
-            if (isfinite(ratio) && ratio < 1e15) snprintf(count, sizeof count, "%.0f", ceil(ratio));
-            else snprintf(count, sizeof count, "%.3g", ratio);
-            if (h_ok >= MIN_COMMUNICATION_STEP)
-                native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
-                                                 "step of %g s (cap %ld); take a smaller communication step (<= %.4g "
-                                                 "s) or raise max_internal_steps", count, h, s->cap, round_down(h_ok));
+            if (isfinite(ratio) && ratio < 1e15)
+                snprintf(count, sizeof count, "%.0f", ceil(ratio));
             else
-                native_refuse(r, BRIDGE_ERROR, "internal_step: even a %g s communication step needs more than "
-                                               "max_internal_steps = %ld internal steps (allowed: a smaller value, or "
-                                               "a larger max_internal_steps)", MIN_COMMUNICATION_STEP, s->cap);
+                snprintf(count, sizeof count, "%.3g", ratio);
+            if (h_ok >= MIN_COMMUNICATION_STEP)
+                native_refuse(r, BRIDGE_DISCARD,
+                              "max_internal_steps: needs %s internal steps for this communication "
+                              "step of %g s (cap %ld); take a smaller communication step (<= %.4g "
+                              "s) or raise max_internal_steps",
+                              count, h, s->cap, round_down(h_ok));
+            else
+                native_refuse(r, BRIDGE_ERROR,
+                              "internal_step: even a %g s communication step needs more than "
+                              "max_internal_steps = %ld internal steps (allowed: a smaller value, or "
+                              "a larger max_internal_steps)",
+                              MIN_COMMUNICATION_STEP, s->cap);
             return 0;
         }
         n = (long)ceil(ratio);
@@ -345,6 +352,12 @@ static int culprit(void *sim, int what, const double *x, const double *in, doubl
     return best; /* outputs: the largest contributor (one that overflows alone is the largest) */
 }
 
-const NativeKind native_lti_kind = {.name = "lti", .load = load, .free_model = free_model, .state_size = state_size,
-                                    .init = init, .free_sim = free_sim, .step = step, .outputs = outputs,
+const NativeKind native_lti_kind = {.name = "lti",
+                                    .load = load,
+                                    .free_model = free_model,
+                                    .state_size = state_size,
+                                    .init = init,
+                                    .free_sim = free_sim,
+                                    .step = step,
+                                    .outputs = outputs,
                                     .culprit = culprit};

@@ -64,11 +64,11 @@
 #define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
 #define N_ROLES 11
 #define FFX_PI 3.14159265358979323846
-#define AUTO_STEP_FRACTION 0.9      /* flexfmu.body.engines.AUTO_STEP_FRACTION */
+#define AUTO_STEP_FRACTION 0.9 /* flexfmu.body.engines.AUTO_STEP_FRACTION */
 enum { R_ZETA, R_TOL, R_INTERNAL, R_CAP, R_V0, R_OMEGA0 = R_V0 + 3, R_FOLLOW = R_OMEGA0 + 3 };
-static const char *const ROLE_NAMES[N_ROLES] = {"damping_ratio", "tolerance", "internal_step", "max_internal_steps",
-                                                "v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3",
-                                                "force_follows_body"};
+static const char *const ROLE_NAMES[N_ROLES]
+    = {"damping_ratio", "tolerance", "internal_step", "max_internal_steps", "v0_x", "v0_y", "v0_z",
+       "omega0_1",      "omega0_2",  "omega0_3",      "force_follows_body"};
 
 typedef struct {
     NativeLayout layout;
@@ -79,8 +79,8 @@ typedef struct {
     double limit;
     int64_t *order;
     double arm, J_min, size, mass;
-    int search_column;  /* the max elastic displacement's kernel column (22 + 2 nf) */
-    int search_always;  /* an output that is not deferred needs the search */
+    int search_column; /* the max elastic displacement's kernel column (22 + 2 nf) */
+    int search_always; /* an output that is not deferred needs the search */
 } ReframeModel;
 
 typedef struct {
@@ -139,8 +139,7 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
         goto fail;
     }
     long sp[1] = {FFX_REFRAME_PARAM_SIZE(nf)}, sl[1] = {(long)m->n_loads * FFX_REFRAME_LOAD_STRIDE(nf)},
-         spp[2] = {m->free_body ? -1 : 1, 3 + 3 * nf},
-         so[1] = {nf}, spsi[2] = {-1, 6 + nf}, sbc[2] = {-1, 3 * nf};
+         spp[2] = {m->free_body ? -1 : 1, 3 + 3 * nf}, so[1] = {nf}, spsi[2] = {-1, 6 + nf}, sbc[2] = {-1, 3 * nf};
     if (native_f64(file, "reframe.P", 1, sp, &m->P, NULL, why, why_size) < 0
         || native_f64(file, "reframe.LP", 1, sl, &m->LP, NULL, why, why_size) < 0
         || native_f64(file, "reframe.PP", 2, spp, &m->PP, s, why, why_size) < 0)
@@ -180,8 +179,10 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     for (int k = 0; k < m->n_out; k++) {
         int deferred = layout->deferred && layout->deferred[k];
         if (deferred && m->columns[k] != m->search_column) {
-            snprintf(why, why_size, "the model file defers output %s, which the reframe kind computes with the "
-                                    "others (only max_elastic_displacement can be deferred)", layout->output_names[k]);
+            snprintf(why, why_size,
+                     "the model file defers output %s, which the reframe kind computes with the "
+                     "others (only max_elastic_displacement can be deferred)",
+                     layout->output_names[k]);
             goto fail;
         }
         if (!deferred && m->columns[k] == m->search_column) m->search_always = 1;
@@ -235,14 +236,17 @@ static int free_checks(ReframeSim *s, double shortest, NativeResult *r) {
     const ReframeModel *m = s->m;
     double h = s->internal_step;
     if (h > m->limit)
-        return native_refuse(r, BRIDGE_ERROR, "internal_step: %g s exceeds the RK4 stability limit 2.8 / omega_max = "
-                                              "%.6g s (allowed: 0 (automatic) or %.3g .. %.6g s, or scheme "
-                                              "exponential)", h, m->limit, shortest, m->limit);
+        return native_refuse(r, BRIDGE_ERROR,
+                             "internal_step: %g s exceeds the RK4 stability limit 2.8 / omega_max = "
+                             "%.6g s (allowed: 0 (automatic) or %.3g .. %.6g s, or scheme "
+                             "exponential)",
+                             h, m->limit, shortest, m->limit);
     s->max_step = h > 0 ? h : (m->consistent ? AUTO_STEP_FRACTION * m->limit : INFINITY);
     if (s->max_step < shortest)
-        return native_refuse(r, BRIDGE_ERROR, "%s: internal steps of %.3g s need more than max_internal_steps = %ld "
-                                              "for a %g s communication step (allowed: scheme exponential, fewer "
-                                              "modes, or a larger max_internal_steps)",
+        return native_refuse(r, BRIDGE_ERROR,
+                             "%s: internal steps of %.3g s need more than max_internal_steps = %ld "
+                             "for a %g s communication step (allowed: scheme exponential, fewer "
+                             "modes, or a larger max_internal_steps)",
                              h == 0 ? "scheme" : "internal_step", s->max_step, s->cap, MIN_COMMUNICATION_STEP);
     return 0;
 }
@@ -287,10 +291,11 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     if (!(s->internal_step == 0.0 || s->internal_step >= shortest)) {
         char shown[64];
         native_repr(s->internal_step, shown, sizeof shown);
-        native_refuse(r, BRIDGE_ERROR, "internal_step: %s s: even a %g s communication step would need more than "
-                                       "max_internal_steps = %ld of them (allowed: 0 (automatic), or %.3g s .. any "
-                                       "longer step (no stability limit))", shown, MIN_COMMUNICATION_STEP, s->cap,
-                      shortest);
+        native_refuse(r, BRIDGE_ERROR,
+                      "internal_step: %s s: even a %g s communication step would need more than "
+                      "max_internal_steps = %ld of them (allowed: 0 (automatic), or %.3g s .. any "
+                      "longer step (no stability limit))",
+                      shown, MIN_COMMUNICATION_STEP, s->cap, shortest);
         free_sim(s);
         return NULL;
     }
@@ -299,11 +304,13 @@ static void *init(const void *model, const double *params, double *x, NativeResu
         int i = 0;
         for (int k = 1; k < 3; k++)
             if (fabs(w0[k]) > fabs(w0[i])) i = k;
-        native_refuse(r, BRIDGE_ERROR, "%s: %g rad/s (|omega0| = %.4g rad/s): at that spin even a %g s communication "
-                                       "step needs more than max_internal_steps = %ld internal steps of at most 0.5 "
-                                       "tolerance^(1/4) = %.3g rad (allowed: |omega0| <= %.4g rad/s (max_internal_steps "
-                                       "x 0.5 tolerance^(1/4) / %g s))", ROLE_NAMES[R_OMEGA0 + i], w0[i], omega0,
-                      MIN_COMMUNICATION_STEP, s->cap, s->theta_max, omega_cap, MIN_COMMUNICATION_STEP);
+        native_refuse(r, BRIDGE_ERROR,
+                      "%s: %g rad/s (|omega0| = %.4g rad/s): at that spin even a %g s communication "
+                      "step needs more than max_internal_steps = %ld internal steps of at most 0.5 "
+                      "tolerance^(1/4) = %.3g rad (allowed: |omega0| <= %.4g rad/s (max_internal_steps "
+                      "x 0.5 tolerance^(1/4) / %g s))",
+                      ROLE_NAMES[R_OMEGA0 + i], w0[i], omega0, MIN_COMMUNICATION_STEP, s->cap, s->theta_max, omega_cap,
+                      MIN_COMMUNICATION_STEP);
         free_sim(s);
         return NULL;
     }
@@ -341,8 +348,10 @@ static int moment_refused(ReframeSim *s, const double *u, NativeResult *r) {
     for (int k = 3; k < 6; k++)
         if (u[k] != 0.0) {
             static const char *const names[3] = {"M_x", "M_y", "M_z"};
-            native_refuse(r, BRIDGE_ERROR, "%s: moments need a model with rotational DOFs (beam:<scene>) (allowed: 0 "
-                                           "for models with 3 DOFs per node)", names[k - 3]);
+            native_refuse(r, BRIDGE_ERROR,
+                          "%s: moments need a model with rotational DOFs (beam:<scene>) (allowed: 0 "
+                          "for models with 3 DOFs per node)",
+                          names[k - 3]);
             return 1;
         }
     return 0;
@@ -353,9 +362,8 @@ static void kernel_outputs(ReframeSim *s, const double *x, const double *u, int 
     const ReframeModel *m = s->m;
     load_values(s, u);
     ffx_reframe_outputs(s->P, s->LP, m->n_loads, NULL, m->nf, m->deformed, s->sv, x, m->PP, m->n_points, m->Psi,
-                        m->psi_cols, m->dpn,
-                        m->order, search ? m->n_nodes : 0, m->bc, m->br, m->n_blocks, m->sc, m->sr, m->n_super,
-                        s->out, s->work);
+                        m->psi_cols, m->dpn, m->order, search ? m->n_nodes : 0, m->bc, m->br, m->n_blocks, m->sc, m->sr,
+                        m->n_super, s->out, s->work);
 }
 
 /* Python's round_down(x, 4) (flexfmu.core.checks). */
@@ -376,28 +384,36 @@ static int too_many(ReframeSim *s, double t, double h, double needed, const doub
     const ReframeModel *m = s->m;
     double theta = s->theta_max, h_ok;
     long cap = s->cap;
-    if (!rates) h_ok = (double)cap * s->internal_step;
+    if (!rates)
+        h_ok = (double)cap * s->internal_step;
     else {
         double w = rates[0], a = rates[1], disc = w * w + 2.0 * a * theta;
         double root = isfinite(disc) ? sqrt(disc) : INFINITY;
         h_ok = w + root > 0 ? (double)cap * 2.0 * theta / (w + root) : INFINITY;
     }
     char count[64];
-    if (isfinite(needed) && needed < 1e15) snprintf(count, sizeof count, "%.0f", ceil(needed));
-    else snprintf(count, sizeof count, "%.3g", needed);
+    if (isfinite(needed) && needed < 1e15)
+        snprintf(count, sizeof count, "%.0f", ceil(needed));
+    else
+        snprintf(count, sizeof count, "%.3g", needed);
     if (h_ok >= MIN_COMMUNICATION_STEP)
-        return native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
-                                                "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
-                                                "or raise max_internal_steps", count, h, cap, round_down(h_ok));
+        return native_refuse(r, BRIDGE_DISCARD,
+                             "max_internal_steps: needs %s internal steps for this communication "
+                             "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
+                             "or raise max_internal_steps",
+                             count, h, cap, round_down(h_ok));
     if (!rates)
-        return native_refuse(r, BRIDGE_ERROR, "internal_step: %g s: even a %g s communication step needs more than "
-                                              "max_internal_steps = %ld internal steps (allowed: a longer internal step "
-                                              "or a larger max_internal_steps)", s->internal_step,
-                             MIN_COMMUNICATION_STEP, cap);
+        return native_refuse(r, BRIDGE_ERROR,
+                             "internal_step: %g s: even a %g s communication step needs more than "
+                             "max_internal_steps = %ld internal steps (allowed: a longer internal step "
+                             "or a larger max_internal_steps)",
+                             s->internal_step, MIN_COMMUNICATION_STEP, cap);
     double w = rates[0], a = rates[1], hm = MIN_COMMUNICATION_STEP;
     char why[256];
-    snprintf(why, sizeof why, "even a %g s communication step needs more than max_internal_steps = %ld internal steps "
-                              "of at most 0.5 tolerance^(1/4) = %.3g rad (scheme exponential)", hm, cap, theta);
+    snprintf(why, sizeof why,
+             "even a %g s communication step needs more than max_internal_steps = %ld internal steps "
+             "of at most 0.5 tolerance^(1/4) = %.3g rad (scheme exponential)",
+             hm, cap, theta);
     if (0.5 * a * hm * hm >= w * hm) {
         static const char *const names[6] = {"F_x", "F_y", "F_z", "M_x", "M_y", "M_z"};
         int best = 0;
@@ -407,14 +423,18 @@ static int too_many(ReframeSim *s, double t, double h, double needed, const doub
             if (score > best_score) best = k, best_score = score;
         }
         double a_ok = fmax(2.0 * ((double)cap * theta - w * hm) / (hm * hm), 0.0), lever = best < 3 ? m->arm : 1.0;
-        return native_refuse(r, BRIDGE_ERROR, "%s: %g %s gives an angular acceleration of up to %.3g rad/s^2: %s "
-                                              "(allowed: |%c| <= about %.3g %s at this load point (|alpha| <= %.3g "
-                                              "rad/s^2))", names[best], u[best], best < 3 ? "N" : "N.m", a, why,
-                             names[best][0], lever > 0 ? a_ok * m->J_min / lever : 0.0, best < 3 ? "N" : "N.m", a_ok);
+        return native_refuse(r, BRIDGE_ERROR,
+                             "%s: %g %s gives an angular acceleration of up to %.3g rad/s^2: %s "
+                             "(allowed: |%c| <= about %.3g %s at this load point (|alpha| <= %.3g "
+                             "rad/s^2))",
+                             names[best], u[best], best < 3 ? "N" : "N.m", a, why, names[best][0],
+                             lever > 0 ? a_ok * m->J_min / lever : 0.0, best < 3 ? "N" : "N.m", a_ok);
     }
     double omega_ok = (double)cap * theta / hm;
-    return native_refuse(r, BRIDGE_ERROR, "state: the body spins at %.4g rad/s at t = %.6g s: %s (allowed: inputs "
-                                          "that keep |omega| <= %.4g rad/s)", w, t, why, omega_ok);
+    return native_refuse(r, BRIDGE_ERROR,
+                         "state: the body spins at %.4g rad/s at t = %.6g s: %s (allowed: inputs "
+                         "that keep |omega| <= %.4g rad/s)",
+                         w, t, why, omega_ok);
 }
 
 /* ReframeBodySimulator._split: the internal steps of a communication step h (>= 1), or 0 after refusing. */
@@ -452,9 +472,11 @@ static long split(ReframeSim *s, const double *x, const double *u_before, const 
             if (k == 8) n = (long)ceil(theta / s->theta_max * (1 + 1e-9));
             if (n > cap) return too_many(s, t, h, (double)n, rates, u, r), 0;
         }
-        snprintf(why, sizeof why, "scheme exponential: no stability limit; by accuracy, rotation per internal step "
-                                  "%.3g rad <= 0.5 tolerance^(1/4) = %.3g rad (|omega| = %.4g rad/s, |alpha| ~ %.4g "
-                                  "rad/s^2)", theta / (double)n, s->theta_max, w, a);
+        snprintf(why, sizeof why,
+                 "scheme exponential: no stability limit; by accuracy, rotation per internal step "
+                 "%.3g rad <= 0.5 tolerance^(1/4) = %.3g rad (|omega| = %.4g rad/s, |alpha| ~ %.4g "
+                 "rad/s^2)",
+                 theta / (double)n, s->theta_max, w, a);
     }
     if (s->m->log_split && n != s->last_split)
         native_note(r, "t = %.6g s: communication step %g s in %ld internal step(s) of %.4g s: %s", t, h, n,
@@ -512,15 +534,21 @@ static double rotation_count(const ReframeSim *s, double h, double w, double a) 
 /* flexfmu.body.engines.too_many_steps */
 static int free_too_many(ReframeSim *s, double needed, double h, double h_ok, const char *cause, NativeResult *r) {
     char count[64];
-    if (isfinite(needed) && needed < 1e15) snprintf(count, sizeof count, "%.0f", ceil(needed));
-    else snprintf(count, sizeof count, "%.3g", needed);
+    if (isfinite(needed) && needed < 1e15)
+        snprintf(count, sizeof count, "%.0f", ceil(needed));
+    else
+        snprintf(count, sizeof count, "%.3g", needed);
     if (h_ok >= MIN_COMMUNICATION_STEP)
-        return native_refuse(r, BRIDGE_DISCARD, "max_internal_steps: needs %s internal steps for this communication "
-                                                "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
-                                                "or raise max_internal_steps", count, h, s->cap, round_down(h_ok));
-    return native_refuse(r, BRIDGE_ERROR, "%s: even a %g s communication step needs more than max_internal_steps = "
-                                          "%ld internal steps (allowed: a smaller value, or a larger "
-                                          "max_internal_steps)", cause, MIN_COMMUNICATION_STEP, s->cap);
+        return native_refuse(r, BRIDGE_DISCARD,
+                             "max_internal_steps: needs %s internal steps for this communication "
+                             "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
+                             "or raise max_internal_steps",
+                             count, h, s->cap, round_down(h_ok));
+    return native_refuse(r, BRIDGE_ERROR,
+                         "%s: even a %g s communication step needs more than max_internal_steps = "
+                         "%ld internal steps (allowed: a smaller value, or a larger "
+                         "max_internal_steps)",
+                         cause, MIN_COMMUNICATION_STEP, s->cap);
 }
 
 /* The culprit's name of FreeEngine.culprit, or "state". */
@@ -543,23 +571,29 @@ static long free_split(ReframeSim *s, const double *x, const double *u, double t
             double lo = 0.0, hi = h;
             for (int k = 0; k < 200; k++) {
                 double mid = 0.5 * (lo + hi);
-                if (rotation_count(s, mid, w, a) <= (double)cap) lo = mid;
-                else hi = mid;
+                if (rotation_count(s, mid, w, a) <= (double)cap)
+                    lo = mid;
+                else
+                    hi = mid;
             }
             return free_too_many(s, ratio, h, lo, free_cause(s, u), r), 0;
         }
         n = (long)ceil(ratio * (1 - 1e-12));
         if (n < 1) n = 1;
-        snprintf(why, sizeof why, "scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = %.3g rad "
-                                  "(|omega| = %.4g rad/s, |alpha| = %.4g rad/s^2, held)", s->theta_max, w, a);
+        snprintf(why, sizeof why,
+                 "scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = %.3g rad "
+                 "(|omega| = %.4g rad/s, |alpha| = %.4g rad/s^2, held)",
+                 s->theta_max, w, a);
     } else {
         double ratio = h / s->max_step * (1 - 1e-12);
         if (!(ratio <= (double)cap))
             return free_too_many(s, ratio, h, (double)cap * s->max_step, "internal_step", r), 0;
         n = (long)ceil(ratio);
         if (n < 1) n = 1;
-        if (s->internal_step > 0) snprintf(why, sizeof why, "internal_step = %g s", s->internal_step);
-        else snprintf(why, sizeof why, "scheme consistent (RK4): 90 %% of the stability limit %.4g s", m->limit);
+        if (s->internal_step > 0)
+            snprintf(why, sizeof why, "internal_step = %g s", s->internal_step);
+        else
+            snprintf(why, sizeof why, "scheme consistent (RK4): 90 %% of the stability limit %.4g s", m->limit);
     }
     if (m->log_split && n != s->last_split)
         native_note(r, "t = %.6g s: communication step %g s in %ld internal step(s) of %.4g s: %s", t, h, n,
@@ -583,10 +617,13 @@ static int step_held(void *sim, double *x, const double *u_before, const double 
         int off[FFX_REFRAME_N_OFFSETS];
         ffx_reframe_offsets(nf, off);
         if (ffx_reframe_exponential_coefficients(nf, s->P + off[FFX_REFRAME_O_K], s->P + off[FFX_REFRAME_O_CF], dt,
-                                                 s->EX, s->ework) != FFX_REFRAME_OK) {
+                                                 s->EX, s->ework)
+            != FFX_REFRAME_OK) {
             s->ex_dt = 0.0;
-            return native_refuse(r, BRIDGE_ERROR, "dt: %g s gives non-finite exponential propagators (allowed: a "
-                                                  "finite time step > 0 (s))", dt);
+            return native_refuse(r, BRIDGE_ERROR,
+                                 "dt: %g s gives non-finite exponential propagators (allowed: a "
+                                 "finite time step > 0 (s))",
+                                 dt);
         }
         s->ex_dt = dt;
     }
@@ -634,8 +671,8 @@ static int deferred_outputs(ReframeSim *s, const double *x, double *y) {
     const double *q = x + 12 + FFX_REFRAME_N_RIGID; /* eta = [q_R (6), q_F (nf), ...] */
     double value = FFX_REFRAME_NOT_COMPUTED;
     if (m->n_nodes > 0) {
-        value = ffx_reframe_max_node_norm(m->Psi, m->psi_cols, FFX_REFRAME_N_RIGID, m->dpn, m->order, m->n_nodes,
-                                          m->bc, m->br, m->n_blocks, m->sc, m->sr, m->n_super, q, m->nf);
+        value = ffx_reframe_max_node_norm(m->Psi, m->psi_cols, FFX_REFRAME_N_RIGID, m->dpn, m->order, m->n_nodes, m->bc,
+                                          m->br, m->n_blocks, m->sc, m->sr, m->n_super, q, m->nf);
         s->n_searches++;
     }
     int bad = 0;
@@ -685,15 +722,22 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
         return what == 0 && !(best_score > threshold) ? -1 : best;
     }
     for (int k = 0; k < 6; k++) {
-        double score = k < 3 ? fabs(u[k]) * (1.0 / m->mass + m->arm * m->size / m->J_min)
-                             : fabs(u[k]) * m->size / m->J_min;
+        double score
+            = k < 3 ? fabs(u[k]) * (1.0 / m->mass + m->arm * m->size / m->J_min) : fabs(u[k]) * m->size / m->J_min;
         if (score > best_score || (!(score <= best_score) && best < 0)) best = k, best_score = score;
     }
     if (what == 0) return best >= 0 && !(best_score <= threshold) ? best : -1;
     return best;
 }
 
-const NativeKind native_reframe_kind = {.name = "reframe", .load = load, .free_model = free_model,
-                                        .state_size = state_size, .init = init, .free_sim = free_sim, .step = step,
-                                        .outputs = outputs, .culprit = culprit, .step_held = step_held,
+const NativeKind native_reframe_kind = {.name = "reframe",
+                                        .load = load,
+                                        .free_model = free_model,
+                                        .state_size = state_size,
+                                        .init = init,
+                                        .free_sim = free_sim,
+                                        .step = step,
+                                        .outputs = outputs,
+                                        .culprit = culprit,
+                                        .step_held = step_held,
                                         .report = report};

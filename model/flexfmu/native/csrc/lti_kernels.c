@@ -10,8 +10,7 @@
 
 /* ------------------------------------------------------------------ small helpers */
 
-static int all_finite(const double *v, size_t n)
-{
+static int all_finite(const double *v, size_t n) {
     size_t i;
     for (i = 0; i < n; i++) {
         if (!isfinite(v[i])) return 0;
@@ -20,8 +19,7 @@ static int all_finite(const double *v, size_t n)
 }
 
 /* sum_j a[j] v[j], summed in order j = 0, 1, ... from 0.0 (the order every mat-vec here uses). */
-static double dot(const double *a, const double *v, int n)
-{
+static double dot(const double *a, const double *v, int n) {
     double sum = 0.0;
     int j;
     for (j = 0; j < n; j++) sum += a[j] * v[j];
@@ -31,8 +29,7 @@ static double dot(const double *a, const double *v, int n)
 /* to[i] = sum_j M[i][j] v[j] + add[i] (M (rows, n) row-major), each sum in the order of dot().  Four rows at a
  * time: four independent sums keep the adder busy where one sum would wait on its previous add (the per-step
  * mat-vec of a small model is latency-bound); the order within each row, and so every bit, is dot()'s. */
-static void matvec_add(const double *M, const double *v, const double *add, int rows, int n, double *to)
-{
+static void matvec_add(const double *M, const double *v, const double *add, int rows, int n, double *to) {
     int i = 0, j;
     for (; i + 4 <= rows; i += 4) {
         const double *m0 = M + (size_t)i * n, *m1 = m0 + n, *m2 = m1 + n, *m3 = m2 + n;
@@ -53,8 +50,7 @@ static void matvec_add(const double *M, const double *v, const double *add, int 
 }
 
 /* C = A B, all (n, n) row-major; C must not alias A or B. */
-static void matmul(int n, const double *A, const double *B, double *C)
-{
+static void matmul(int n, const double *A, const double *B, double *C) {
     int i, j, k;
     for (i = 0; i < n; i++) {
         double *c = C + (size_t)i * n;
@@ -69,8 +65,7 @@ static void matmul(int n, const double *A, const double *B, double *C)
 }
 
 /* 1-norm (largest column sum of absolute values) of the (n, n) matrix A. */
-static double norm1(int n, const double *A, double *col)
-{
+static double norm1(int n, const double *A, double *col) {
     int i, j;
     double best = 0.0;
     for (j = 0; j < n; j++) col[j] = 0.0;
@@ -84,8 +79,7 @@ static double norm1(int n, const double *A, double *col)
 }
 
 /* to = from^T |A| (the row vector of column sums of |A| weighted by from), |A| given as absA. */
-static void spin(int n, const double *absA, const double *from, double *to)
-{
+static void spin(int n, const double *absA, const double *from, double *to) {
     int i, j;
     for (j = 0; j < n; j++) to[j] = 0.0;
     for (i = 0; i < n; i++) {
@@ -95,8 +89,7 @@ static void spin(int n, const double *absA, const double *from, double *to)
     }
 }
 
-static double vmax(int n, const double *v)
-{
+static double vmax(int n, const double *v) {
     int i;
     double best = 0.0;
     for (i = 0; i < n; i++) {
@@ -107,8 +100,7 @@ static double vmax(int n, const double *v)
 
 /* ------------------------------------------------------------------ model, monomials, assembly */
 
-int ffx_lti_check_model(const ffx_lti_model *m)
-{
+int ffx_lti_check_model(const ffx_lti_model *m) {
     int k, nz;
     if (m == NULL) return FFX_LTI_BAD_ARGUMENT;
     if (m->nx < 0 || m->nu < 0 || m->ny < 0 || m->np < 0 || m->nquad < 0) return FFX_LTI_BAD_ARGUMENT;
@@ -121,8 +113,8 @@ int ffx_lti_check_model(const ffx_lti_model *m)
         return FFX_LTI_BAD_ARGUMENT;
     nz = m->nx + m->nu + m->nmono;
     for (k = 0; k < m->nquad; k++) {
-        if (m->quad_row[k] < 0 || m->quad_row[k] >= m->ny || m->quad_i[k] < 0 || m->quad_i[k] >= nz
-            || m->quad_j[k] < 0 || m->quad_j[k] >= nz)
+        if (m->quad_row[k] < 0 || m->quad_row[k] >= m->ny || m->quad_i[k] < 0 || m->quad_i[k] >= nz || m->quad_j[k] < 0
+            || m->quad_j[k] >= nz)
             return FFX_LTI_BAD_ARGUMENT;
     }
     if (m->quad_start != NULL) {
@@ -137,8 +129,7 @@ int ffx_lti_check_model(const ffx_lti_model *m)
     return FFX_LTI_OK;
 }
 
-int ffx_lti_quad_starts(const ffx_lti_model *m, int *quad_start)
-{
+int ffx_lti_quad_starts(const ffx_lti_model *m, int *quad_start) {
     int k, r = 0;
     for (k = 1; k < m->nquad; k++)
         if (m->quad_row[k] < m->quad_row[k - 1]) return 0;
@@ -149,8 +140,7 @@ int ffx_lti_quad_starts(const ffx_lti_model *m, int *quad_start)
     return 1;
 }
 
-void ffx_lti_monomials(int np, const double *p, double *mono)
-{
+void ffx_lti_monomials(int np, const double *p, double *mono) {
     int i, j, k = 1 + np;
     mono[0] = 1.0;
     for (i = 0; i < np; i++) mono[1 + i] = p[i];
@@ -160,11 +150,10 @@ void ffx_lti_monomials(int np, const double *p, double *mono)
 }
 
 /* out (len) = sum_k mono[k] coef[k] (coef: (nmono, len)); monomials that are zero are skipped. */
-static void combine(int nmono, size_t len, const double *coef, const double *mono, double *out)
-{
+static void combine(int nmono, size_t len, const double *coef, const double *mono, double *out) {
     int k;
     size_t i;
-    for (i = 0; i < len; i++) out[i] = coef[i];          /* mono[0] = 1 */
+    for (i = 0; i < len; i++) out[i] = coef[i]; /* mono[0] = 1 */
     for (k = 1; k < nmono; k++) {
         const double c = mono[k];
         const double *a = coef + (size_t)k * len;
@@ -173,8 +162,7 @@ static void combine(int nmono, size_t len, const double *coef, const double *mon
     }
 }
 
-void ffx_lti_assemble_dynamics(const ffx_lti_model *m, const double *mono, double *A, double *B, double *b)
-{
+void ffx_lti_assemble_dynamics(const ffx_lti_model *m, const double *mono, double *A, double *B, double *b) {
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu;
     if (nx == 0) return;
     combine(m->nmono, nx * nx, m->A, mono, A);
@@ -182,8 +170,7 @@ void ffx_lti_assemble_dynamics(const ffx_lti_model *m, const double *mono, doubl
     combine(m->nmono, nx, m->b, mono, b);
 }
 
-void ffx_lti_assemble_outputs(const ffx_lti_model *m, const double *mono, double *Cx, double *Cu, double *y0)
-{
+void ffx_lti_assemble_outputs(const ffx_lti_model *m, const double *mono, double *Cx, double *Cu, double *y0) {
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny;
     if (ny == 0) return;
     if (nx > 0) combine(m->nmono, ny * nx, m->Cx, mono, Cx);
@@ -194,9 +181,20 @@ void ffx_lti_assemble_outputs(const ffx_lti_model *m, const double *mono, double
 /* ------------------------------------------------------------------ matrix exponential */
 
 /* [13/13] Pade coefficients b_0 .. b_13 (Higham 2005, Table 2.3 / scipy) */
-static const double PADE13[14] = {
-    64764752532480000.0, 32382376266240000.0, 7771770303897600.0, 1187353796428800.0, 129060195264000.0,
-    10559470521600.0, 670442572800.0, 33522128640.0, 1323241920.0, 40840800.0, 960960.0, 16380.0, 182.0, 1.0};
+static const double PADE13[14] = {64764752532480000.0,
+                                  32382376266240000.0,
+                                  7771770303897600.0,
+                                  1187353796428800.0,
+                                  129060195264000.0,
+                                  10559470521600.0,
+                                  670442572800.0,
+                                  33522128640.0,
+                                  1323241920.0,
+                                  40840800.0,
+                                  960960.0,
+                                  16380.0,
+                                  182.0,
+                                  1.0};
 /* theta_13 of Al-Mohy & Higham (2009) and the constant of their backward-error bound for m = 13 (the values
  * scipy.linalg.expm uses) */
 static const double THETA13 = 4.25;
@@ -204,15 +202,13 @@ static const double ELL13 = 1.2573361865339437e+19;
 /* more squarings than 2^-1100 |A| needs for any finite A */
 #define MAX_SQUARINGS 1100
 
-size_t ffx_lti_expm_work_len(int n)
-{
+size_t ffx_lti_expm_work_len(int n) {
     const size_t nn = (size_t)(n > 0 ? n : 0) * (size_t)(n > 0 ? n : 0);
     return 8 * nn + 3 * (size_t)(n > 0 ? n : 0);
 }
 
 /* Solve Q X = P (n, n; X overwrites P) by LU with partial pivoting of Q (overwritten); 0, or 1 if singular. */
-static int lu_solve(int n, double *Q, double *P)
-{
+static int lu_solve(int n, double *Q, double *P) {
     int i, j, k, piv;
     for (k = 0; k < n; k++) {
         double best = fabs(Q[(size_t)k * n + k]);
@@ -250,10 +246,10 @@ static int lu_solve(int n, double *Q, double *P)
             qi[k] = l;
             if (l == 0.0) continue;
             for (j = k + 1; j < n; j++) qi[j] -= l * qk[j];
-            for (j = 0; j < n; j++) pi[j] -= l * pk[j];        /* forward substitution with L */
+            for (j = 0; j < n; j++) pi[j] -= l * pk[j]; /* forward substitution with L */
         }
     }
-    for (k = n - 1; k >= 0; k--) {                            /* back substitution with U */
+    for (k = n - 1; k >= 0; k--) { /* back substitution with U */
         double *pk = P + (size_t)k * n;
         const double *qk = Q + (size_t)k * n;
         const double inv = 1.0 / qk[k];
@@ -268,8 +264,7 @@ static int lu_solve(int n, double *Q, double *P)
     return 0;
 }
 
-int ffx_lti_expm(int n, const double *M, double *E, double *work)
-{
+int ffx_lti_expm(int n, const double *M, double *E, double *work) {
     const size_t nn = (size_t)(n > 0 ? n : 0) * (size_t)(n > 0 ? n : 0);
     double *A = work, *A2 = work + nn, *A4 = work + 2 * nn, *A6 = work + 3 * nn;
     double *U = work + 4 * nn, *V = work + 5 * nn, *T = work + 6 * nn, *absA = work + 7 * nn;
@@ -288,9 +283,9 @@ int ffx_lti_expm(int n, const double *M, double *E, double *work)
     memcpy(A, M, nn * sizeof(double));
     for (q = 0; q < nn; q++) absA[q] = fabs(A[q]);
     for (i = 0; i < n; i++) v0[i] = 1.0;
-    spin(n, absA, v0, v1);                                     /* ||A||_1 = max of 1^T |A| */
+    spin(n, absA, v0, v1); /* ||A||_1 = max of 1^T |A| */
     normA = vmax(n, v1);
-    if (normA == 0.0) {                                        /* the zero matrix */
+    if (normA == 0.0) { /* the zero matrix */
         for (q = 0; q < nn; q++) E[q] = 0.0;
         for (i = 0; i < n; i++) E[(size_t)i * n + i] = 1.0;
         return FFX_LTI_OK;
@@ -302,9 +297,9 @@ int ffx_lti_expm(int n, const double *M, double *E, double *work)
     matmul(n, A2, A2, A4);
     matmul(n, A4, A2, A6);
     d6 = pow(norm1(n, A6, col), 1.0 / 6.0);
-    matmul(n, A4, A4, T);                                      /* A^8 */
+    matmul(n, A4, A4, T); /* A^8 */
     d8 = pow(norm1(n, T, col), 0.125);
-    matmul(n, A6, A4, T);                                      /* A^10 */
+    matmul(n, A6, A4, T); /* A^10 */
     d10 = pow(norm1(n, T, col), 0.1);
     eta = fmin(fmax(d6, d8), fmax(d8, d10));
     if (!isfinite(eta) || !isfinite(normA)) {
@@ -368,8 +363,8 @@ pade:
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
             const size_t ij = (size_t)i * n + j, ji = (size_t)j * n + i;
-            T[ji] = V[ij] - U[ij];                             /* (V - U)^T */
-            A2[ji] = V[ij] + U[ij];                            /* (V + U)^T, then R^T */
+            T[ji] = V[ij] - U[ij];  /* (V - U)^T */
+            A2[ji] = V[ij] + U[ij]; /* (V + U)^T, then R^T */
         }
     }
     if (lu_solve(n, T, A2)) return FFX_LTI_SINGULAR;
@@ -381,13 +376,12 @@ pade:
      * input columns Bd, bd would lose ~2^s eps) */
     for (i = 0; i < n; i++) {
         const double *row = M + (size_t)i * n;
-        for (j = 0; j < n && row[j] == 0.0; j++) {
-        }
+        for (j = 0; j < n && row[j] == 0.0; j++) {}
         if (j == n) {
             for (j = 0; j < n; j++) E[(size_t)i * n + j] = (i == j) ? 1.0 : 0.0;
         }
     }
-    for (j = 0; j < s; j++) {                                  /* squaring */
+    for (j = 0; j < s; j++) { /* squaring */
         matmul(n, E, E, T);
         memcpy(E, T, nn * sizeof(double));
         if (!all_finite(E, nn)) return FFX_LTI_NONFINITE;
@@ -397,26 +391,21 @@ pade:
 
 /* ------------------------------------------------------------------ cached maps */
 
-static size_t aug_n(const ffx_lti_model *m)
-{
-    return (size_t)m->nx + (size_t)m->nu + 1;
-}
+static size_t aug_n(const ffx_lti_model *m) { return (size_t)m->nx + (size_t)m->nu + 1; }
 
-size_t ffx_lti_maps_work_len(const ffx_lti_model *m)
-{
+size_t ffx_lti_maps_work_len(const ffx_lti_model *m) {
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny, np = (size_t)m->np;
     const size_t nmono = (size_t)FFX_LTI_N_MONOMIALS(m->np), n = aug_n(m);
-    return 2 * np                                /* p_step, p_output */
-           + nx * nx + nx * nu + nx              /* Ad, Bd, bd */
-           + ny * nx + ny * nu + ny              /* Cx, Cu, y0 */
-           + (nx + nu + nmono)                   /* z */
-           + nmono + nx                          /* mono, x_new */
-           + 2 * n * n                           /* aug, its exponential */
+    return 2 * np                   /* p_step, p_output */
+           + nx * nx + nx * nu + nx /* Ad, Bd, bd */
+           + ny * nx + ny * nu + ny /* Cx, Cu, y0 */
+           + (nx + nu + nmono)      /* z */
+           + nmono + nx             /* mono, x_new */
+           + 2 * n * n              /* aug, its exponential */
            + ffx_lti_expm_work_len((int)n);
 }
 
-int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len)
-{
+int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len) {
     size_t nx, nu, ny, np, n;
     double *w = work;
     if (maps == NULL || ffx_lti_check_model(m) != FFX_LTI_OK) return FFX_LTI_BAD_ARGUMENT;
@@ -457,24 +446,16 @@ int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, 
     return FFX_LTI_OK;
 }
 
-void ffx_lti_maps_invalidate(ffx_lti_maps *maps)
-{
+void ffx_lti_maps_invalidate(ffx_lti_maps *maps) {
     maps->step_valid = 0;
     maps->output_valid = 0;
 }
 
-double ffx_step_rtol(void)
-{
-    return FFX_STEP_RTOL;
-}
+double ffx_step_rtol(void) { return FFX_STEP_RTOL; }
 
-int ffx_same_step(double cached, double h)
-{
-    return h == cached || fabs(h - cached) <= FFX_STEP_RTOL * fabs(cached);
-}
+int ffx_same_step(double cached, double h) { return h == cached || fabs(h - cached) <= FFX_STEP_RTOL * fabs(cached); }
 
-static int same_p(int np, const double *a, const double *p)
-{
+static int same_p(int np, const double *a, const double *p) {
     int i;
     for (i = 0; i < np; i++) {
         if (!(a[i] == p[i])) return 0;
@@ -482,8 +463,7 @@ static int same_p(int np, const double *a, const double *p)
     return 1;
 }
 
-int ffx_lti_update_step_maps(ffx_lti_maps *maps, const double *p, double h)
-{
+int ffx_lti_update_step_maps(ffx_lti_maps *maps, const double *p, double h) {
     const ffx_lti_model *m = maps->model;
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, n = aug_n(m);
     double *M = maps->aug, *E = maps->aug + n * n;
@@ -532,8 +512,7 @@ int ffx_lti_update_step_maps(ffx_lti_maps *maps, const double *p, double h)
     return FFX_LTI_OK;
 }
 
-int ffx_lti_update_output_maps(ffx_lti_maps *maps, const double *p)
-{
+int ffx_lti_update_output_maps(ffx_lti_maps *maps, const double *p) {
     const ffx_lti_model *m = maps->model;
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny;
     double *mono = maps->z + nx + nu;
@@ -551,17 +530,15 @@ int ffx_lti_update_output_maps(ffx_lti_maps *maps, const double *p)
     return FFX_LTI_OK;
 }
 
-int ffx_lti_step(ffx_lti_maps *maps, const double *p, double h, const double *x, const double *u, double *x_next)
-{
+int ffx_lti_step(ffx_lti_maps *maps, const double *p, double h, const double *x, const double *u, double *x_next) {
     return ffx_lti_steps(maps, p, h, 1, x, u, x_next);
 }
 
 int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const double *x, const double *u,
-                  double *x_next)
-{
+                  double *x_next) {
     const ffx_lti_model *m = maps->model;
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu;
-    double *a = maps->x_new, *c = maps->aug;       /* two state buffers: aug is free between map updates */
+    double *a = maps->x_new, *c = maps->aug; /* two state buffers: aug is free between map updates */
     long k;
     int status;
     if (n < 0) return FFX_LTI_BAD_ARGUMENT;
@@ -591,14 +568,12 @@ int ffx_lti_steps(ffx_lti_maps *maps, const double *p, double h, long n, const d
     return FFX_LTI_OK;
 }
 
-int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y)
-{
+int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const double *u, double *y) {
     return ffx_lti_output_rows(maps, p, x, u, NULL, maps->model->ny, y);
 }
 
 int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, const double *u, const int *rows,
-                        int n_rows, double *y)
-{
+                        int n_rows, double *y) {
     const ffx_lti_model *m = maps->model;
     const int nx = m->nx, nu = m->nu;
     double *z = maps->z;
@@ -615,7 +590,7 @@ int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, co
     }
     if (m->nquad > 0) {
         memcpy(z, x, (size_t)nx * sizeof(double));
-        memcpy(z + nx, u, (size_t)nu * sizeof(double));     /* z[nx + nu ..] = mono(p_output), kept */
+        memcpy(z + nx, u, (size_t)nu * sizeof(double)); /* z[nx + nu ..] = mono(p_output), kept */
         if (m->quad_start != NULL) {
             /* each row's terms summed in a register, in the order of the general loop below (a store and reload
                per term would make each add wait on the last) */
@@ -628,8 +603,7 @@ int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, co
                 y[r] = sum;
             }
         } else if (rows == NULL) {
-            for (k = 0; k < m->nquad; k++)
-                y[m->quad_row[k]] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
+            for (k = 0; k < m->nquad; k++) y[m->quad_row[k]] += m->quad_value[k] * z[m->quad_i[k]] * z[m->quad_j[k]];
         } else {
             for (n = 0; n < n_rows; n++) {
                 r = rows[n];
@@ -643,14 +617,14 @@ int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, co
     return finite ? FFX_LTI_OK : FFX_LTI_NONFINITE;
 }
 
-const char *ffx_lti_status_string(int status)
-{
+const char *ffx_lti_status_string(int status) {
     switch (status) {
     case FFX_LTI_OK: return "ok";
     case FFX_LTI_NONFINITE: return "a result is not finite (NaN or overflow)";
     case FFX_LTI_SINGULAR: return "the Pade denominator of the matrix exponential is singular";
-    case FFX_LTI_BAD_ARGUMENT: return "bad argument: inconsistent model, too little workspace, or a step not finite "
-                                      "or negative";
+    case FFX_LTI_BAD_ARGUMENT:
+        return "bad argument: inconsistent model, too little workspace, or a step not finite "
+               "or negative";
     default: return "unknown status";
     }
 }

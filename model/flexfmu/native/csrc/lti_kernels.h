@@ -27,9 +27,9 @@
 
 /* return codes */
 #define FFX_LTI_OK 0
-#define FFX_LTI_NONFINITE 1      /* a result (step maps, new state or outputs) is not finite: NaN or overflow */
-#define FFX_LTI_SINGULAR 2       /* the Pade denominator of the exponential is singular (a non-finite matrix) */
-#define FFX_LTI_BAD_ARGUMENT 3   /* inconsistent model, too little workspace, or h not finite or < 0 */
+#define FFX_LTI_NONFINITE 1    /* a result (step maps, new state or outputs) is not finite: NaN or overflow */
+#define FFX_LTI_SINGULAR 2     /* the Pade denominator of the exponential is singular (a non-finite matrix) */
+#define FFX_LTI_BAD_ARGUMENT 3 /* inconsistent model, too little workspace, or h not finite or < 0 */
 
 /* Step sizes within FFX_STEP_RTOL (relative) of each other are one step: what was computed for the first (step
  * maps, exponential coefficients) is reused for the other.  Hosts that compute each step as h = t(k+1) - t(k)
@@ -43,17 +43,17 @@ double ffx_step_rtol(void);
 int ffx_same_step(double cached, double h); /* 1 when step h may reuse what was computed for step cached */
 
 typedef struct {
-    int nx, nu, ny, np, nmono;     /* nmono = FFX_LTI_N_MONOMIALS(np) */
-    const double *A;               /* (nmono, nx, nx) */
-    const double *B;               /* (nmono, nx, nu) */
-    const double *b;               /* (nmono, nx) */
-    const double *Cx;              /* (nmono, ny, nx) */
-    const double *Cu;              /* (nmono, ny, nu) */
-    const double *y0;              /* (nmono, ny) */
-    int nquad;                     /* quadratic output terms y[row] += value * z[i] * z[j] */
+    int nx, nu, ny, np, nmono; /* nmono = FFX_LTI_N_MONOMIALS(np) */
+    const double *A;           /* (nmono, nx, nx) */
+    const double *B;           /* (nmono, nx, nu) */
+    const double *b;           /* (nmono, nx) */
+    const double *Cx;          /* (nmono, ny, nx) */
+    const double *Cu;          /* (nmono, ny, nu) */
+    const double *y0;          /* (nmono, ny) */
+    int nquad;                 /* quadratic output terms y[row] += value * z[i] * z[j] */
     const int *quad_row, *quad_i, *quad_j;
     const double *quad_value;
-    const int *quad_start;         /* (ny + 1) or NULL: with the terms ordered by row, those of row r are
+    const int *quad_start; /* (ny + 1) or NULL: with the terms ordered by row, those of row r are
                                       quad_start[r] .. quad_start[r + 1] - 1 (ffx_lti_quad_starts); output rows
                                       alone then visit their own terms only */
 } ffx_lti_model;
@@ -65,13 +65,13 @@ typedef struct {
 typedef struct {
     const ffx_lti_model *model;
     int step_valid, output_valid;
-    double h;                      /* step of Ad, Bd, bd */
-    double *p_step, *p_output;     /* (np) p of the step maps, of the output maps */
+    double h;                  /* step of Ad, Bd, bd */
+    double *p_step, *p_output; /* (np) p of the step maps, of the output maps */
     double *Ad, *Bd, *bd;
     double *Cx, *Cu, *y0;
-    double *z;                     /* (nx + nu + nmono) [x; u; mono(p_output)] for the quadratic terms */
-    double *mono, *x_new;          /* scratch: (nmono), (nx) */
-    double *aug, *expm_work;       /* scratch: the augmented matrix and its exponential (2, n, n), n = nx + nu + 1
+    double *z;               /* (nx + nu + nmono) [x; u; mono(p_output)] for the quadratic terms */
+    double *mono, *x_new;    /* scratch: (nmono), (nx) */
+    double *aug, *expm_work; /* scratch: the augmented matrix and its exponential (2, n, n), n = nx + nu + 1
                                       (ffx_lti_steps' state buffers between updates), and ffx_lti_expm's workspace */
     long n_step_updates, n_output_updates;
 } ffx_lti_maps;

@@ -22,8 +22,7 @@ typedef struct {
     int J0, A, B, C, D, k, c, A6, A6i, com, end;
 } offsets_t;
 
-static offsets_t offsets(int nf)
-{
+static offsets_t offsets(int nf) {
     offsets_t o;
     o.J0 = 1;
     o.A = o.J0 + 9;
@@ -39,13 +38,9 @@ static offsets_t offsets(int nf)
     return o;
 }
 
-int ffx_reframe_abi_version(void)
-{
-    return FFX_REFRAME_ABI_VERSION;
-}
+int ffx_reframe_abi_version(void) { return FFX_REFRAME_ABI_VERSION; }
 
-void ffx_reframe_offsets(int nf, int *off)
-{
+void ffx_reframe_offsets(int nf, int *off) {
     offsets_t o = offsets(nf);
     off[FFX_REFRAME_O_J0] = o.J0;
     off[FFX_REFRAME_O_A] = o.A;
@@ -62,8 +57,7 @@ void ffx_reframe_offsets(int nf, int *off)
 
 /* ------------------------------------------------------------------------------- small 3-vector helpers */
 
-void ffx_reframe_rodrigues(const double *phi, double *R)
-{
+void ffx_reframe_rodrigues(const double *phi, double *R) {
     /* I + a K + b K K with K K = phi phi^T - |phi|^2 I, element by element */
     double th2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
     double th = sqrt(th2);
@@ -87,8 +81,7 @@ void ffx_reframe_rodrigues(const double *phi, double *R)
     R[7] = a * x + b * y * z;
 }
 
-double ffx_reframe_rate_coefficient(double th)
-{
+double ffx_reframe_rate_coefficient(double th) {
     double half;
     if (th < SERIES_THETA) {
         double t2 = th * th;
@@ -98,19 +91,15 @@ double ffx_reframe_rate_coefficient(double th)
     return (1.0 - half * cos(half) / sin(half)) / (th * th);
 }
 
-void ffx_reframe_solve3(const double *S, const double *r, double *x)
-{
+void ffx_reframe_solve3(const double *S, const double *r, double *x) {
     double A[9], b[3];
     int i, j, k, p;
-    for (i = 0; i < 9; i++)
-        A[i] = S[i];
-    for (i = 0; i < 3; i++)
-        b[i] = r[i];
+    for (i = 0; i < 9; i++) A[i] = S[i];
+    for (i = 0; i < 3; i++) b[i] = r[i];
     for (k = 0; k < 3; k++) {
         p = k;
         for (i = k + 1; i < 3; i++)
-            if (fabs(A[3 * i + k]) > fabs(A[3 * p + k]))
-                p = i;
+            if (fabs(A[3 * i + k]) > fabs(A[3 * p + k])) p = i;
         if (p != k) {
             double tmp;
             for (j = 0; j < 3; j++) {
@@ -124,54 +113,44 @@ void ffx_reframe_solve3(const double *S, const double *r, double *x)
         }
         for (i = k + 1; i < 3; i++) {
             double f = A[3 * i + k] / A[3 * k + k];
-            for (j = k; j < 3; j++)
-                A[3 * i + j] -= f * A[3 * k + j];
+            for (j = k; j < 3; j++) A[3 * i + j] -= f * A[3 * k + j];
             b[i] -= f * b[k];
         }
     }
     for (i = 2; i >= 0; i--) {
         double s = b[i];
-        for (j = i + 1; j < 3; j++)
-            s -= A[3 * i + j] * x[j];
+        for (j = i + 1; j < 3; j++) s -= A[3 * i + j] * x[j];
         x[i] = s / A[3 * i + i];
     }
 }
 
 /* out = R x */
-static void mv(const double *R, const double *x, double *out)
-{
+static void mv(const double *R, const double *x, double *out) {
     int a;
-    for (a = 0; a < 3; a++)
-        out[a] = R[3 * a] * x[0] + R[3 * a + 1] * x[1] + R[3 * a + 2] * x[2];
+    for (a = 0; a < 3; a++) out[a] = R[3 * a] * x[0] + R[3 * a + 1] * x[1] + R[3 * a + 2] * x[2];
 }
 
 /* out = R^T x */
-static void mtv(const double *R, const double *x, double *out)
-{
+static void mtv(const double *R, const double *x, double *out) {
     int a;
-    for (a = 0; a < 3; a++)
-        out[a] = R[a] * x[0] + R[3 + a] * x[1] + R[6 + a] * x[2];
+    for (a = 0; a < 3; a++) out[a] = R[a] * x[0] + R[3 + a] * x[1] + R[6 + a] * x[2];
 }
 
 /* out = A B (3x3) */
-static void mm(const double *A, const double *B, double *out)
-{
+static void mm(const double *A, const double *B, double *out) {
     int a, b;
     for (a = 0; a < 3; a++)
-        for (b = 0; b < 3; b++)
-            out[3 * a + b] = A[3 * a] * B[b] + A[3 * a + 1] * B[3 + b] + A[3 * a + 2] * B[6 + b];
+        for (b = 0; b < 3; b++) out[3 * a + b] = A[3 * a] * B[b] + A[3 * a + 1] * B[3 + b] + A[3 * a + 2] * B[6 + b];
 }
 
 /* out = a x b */
-static void cr(const double *a, const double *b, double *out)
-{
+static void cr(const double *a, const double *b, double *out) {
     out[0] = a[1] * b[2] - a[2] * b[1];
     out[1] = a[2] * b[0] - a[0] * b[2];
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-void ffx_reframe_quaternion(const double *R, double *quat)
-{
+void ffx_reframe_quaternion(const double *R, double *quat) {
     double tr = R[0] + R[4] + R[8];
     double best = tr, w, x, y, z, n, scale, px, py, pz, th, s;
     int i, k = 0;
@@ -229,8 +208,7 @@ void ffx_reframe_quaternion(const double *R, double *quat)
 /* ---------------------------------------------------------------------------------------- model pieces */
 
 /* A(x) = sum x_j A_j, B(x) = sum x_j (B_j + B_j^T), D(x) = sum x_j D_j (3 nf), Cx[9 k ..] = sum_j x_j C_jk (9 nf) */
-static void lin(const double *P, int nf, const double *x, double *A9, double *B9, double *D, double *Cx)
-{
+static void lin(const double *P, int nf, const double *x, double *A9, double *B9, double *D, double *Cx) {
     offsets_t o = offsets(nf);
     const double *PA = P + o.A, *PB = P + o.B, *PC = P + o.C, *PD = P + o.D;
     int n3 = 3 * nf, n9 = 9 * nf, i, j, ab;
@@ -238,10 +216,8 @@ static void lin(const double *P, int nf, const double *x, double *A9, double *B9
         A9[ab] = 0.0;
         B9[ab] = 0.0;
     }
-    for (i = 0; i < n3; i++)
-        D[i] = 0.0;
-    for (i = 0; i < n9; i++)
-        Cx[i] = 0.0;
+    for (i = 0; i < n3; i++) D[i] = 0.0;
+    for (i = 0; i < n9; i++) Cx[i] = 0.0;
     for (j = 0; j < nf; j++) {
         double xj = x[j];
         const double *Aj = PA + 9 * j, *Bj = PB + 9 * j, *Dj = PD + n3 * j, *Cj = PC + n9 * j;
@@ -249,33 +225,27 @@ static void lin(const double *P, int nf, const double *x, double *A9, double *B9
             A9[ab] += xj * Aj[ab];
             B9[ab] += xj * Bj[ab];
         }
-        for (i = 0; i < n3; i++)
-            D[i] += xj * Dj[i];
-        for (i = 0; i < n9; i++)
-            Cx[i] += xj * Cj[i];
+        for (i = 0; i < n3; i++) D[i] += xj * Dj[i];
+        for (i = 0; i < n9; i++) Cx[i] += xj * Cj[i];
     }
 }
 
 /* A(q), J(q) = J0 + B(q) + sum_k q_k Cq_k, D(q); Cq as in lin */
-static void blocks(const double *P, int nf, const double *q, double *A9, double *J9, double *D, double *Cq)
-{
+static void blocks(const double *P, int nf, const double *q, double *A9, double *J9, double *D, double *Cq) {
     double B9[9];
     int ab, k;
     lin(P, nf, q, A9, B9, D, Cq);
-    for (ab = 0; ab < 9; ab++)
-        J9[ab] = P[1 + ab] + B9[ab];
+    for (ab = 0; ab < 9; ab++) J9[ab] = P[1 + ab] + B9[ab];
     for (k = 0; k < nf; k++) {
         double qk = q[k];
         const double *Ck = Cq + 9 * k;
-        for (ab = 0; ab < 9; ab++)
-            J9[ab] += qk * Ck[ab];
+        for (ab = 0; ab < 9; ab++) J9[ab] += qk * Ck[ab];
     }
 }
 
 /* Solve [[m I, A, 0], [A^T, J, D], [0, D^T, I]] [x1; x2; x3] = [b1; b2; b3] (Schur complement on x2) */
 static void solve_mass(double m, const double *A9, const double *J9, const double *D, int nf, const double *b1,
-                       const double *b2, const double *b3, double *x1, double *x2, double *x3)
-{
+                       const double *b2, const double *b3, double *x1, double *x2, double *x3) {
     double S[9], r[3], x[3], s;
     const double *D0 = D, *D1 = D + nf, *D2 = D + 2 * nf;
     int a, b, c, k;
@@ -284,39 +254,31 @@ static void solve_mass(double m, const double *A9, const double *J9, const doubl
         for (b = a; b < 3; b++) {
             const double *Db = D + b * nf;
             s = 0.0;
-            for (k = 0; k < nf; k++)
-                s += Da[k] * Db[k];
+            for (k = 0; k < nf; k++) s += Da[k] * Db[k];
             S[3 * a + b] = J9[3 * a + b] - (A9[a] * A9[b] + A9[3 + a] * A9[3 + b] + A9[6 + a] * A9[6 + b]) / m - s;
         }
         s = 0.0;
-        for (k = 0; k < nf; k++)
-            s += Da[k] * b3[k];
+        for (k = 0; k < nf; k++) s += Da[k] * b3[k];
         r[a] = b2[a] - (A9[a] * b1[0] + A9[3 + a] * b1[1] + A9[6 + a] * b1[2]) / m - s;
     }
     for (a = 0; a < 3; a++) /* J symmetric: S too */
-        for (b = 0; b < a; b++)
-            S[3 * a + b] = S[3 * b + a];
+        for (b = 0; b < a; b++) S[3 * a + b] = S[3 * b + a];
     ffx_reframe_solve3(S, r, x);
-    for (a = 0; a < 3; a++)
-        x2[a] = x[a];
-    for (c = 0; c < 3; c++)
-        x1[c] = (b1[c] - (A9[3 * c] * x[0] + A9[3 * c + 1] * x[1] + A9[3 * c + 2] * x[2])) / m;
-    for (k = 0; k < nf; k++)
-        x3[k] = b3[k] - (D0[k] * x[0] + D1[k] * x[1] + D2[k] * x[2]);
+    for (a = 0; a < 3; a++) x2[a] = x[a];
+    for (c = 0; c < 3; c++) x1[c] = (b1[c] - (A9[3 * c] * x[0] + A9[3 * c + 1] * x[1] + A9[3 * c + 2] * x[2])) / m;
+    for (k = 0; k < nf; k++) x3[k] = b3[k] - (D0[k] * x[0] + D1[k] * x[1] + D2[k] * x[2]);
 }
 
 /* Global force sum, body moment about the frame point, flexible generalised forces of one stage */
 static void loads(const double *LP, int n_loads, int nf, int deformed, const double *sv, const double *R9,
-                  const double *q, double *F_g, double *N_b, double *Q)
-{
+                  const double *q, double *F_g, double *N_b, double *Q) {
     int stride = 5 + 6 * nf, l, a, j;
     double f_b[3], m_b[3], tmp[3], arm[3];
     for (a = 0; a < 3; a++) {
         F_g[a] = 0.0;
         N_b[a] = 0.0;
     }
-    for (j = 0; j < nf; j++)
-        Q[j] = 0.0;
+    for (j = 0; j < nf; j++) Q[j] = 0.0;
     for (l = 0; l < n_loads; l++) {
         int base = l * stride, o;
         const double *f = sv + 6 * l, *mo = sv + 6 * l + 3;
@@ -326,16 +288,13 @@ static void loads(const double *LP, int n_loads, int nf, int deformed, const dou
                 m_b[a] = mo[a];
             }
             mv(R9, f, tmp);
-            for (a = 0; a < 3; a++)
-                F_g[a] += tmp[a];
+            for (a = 0; a < 3; a++) F_g[a] += tmp[a];
         } else {
             mtv(R9, f, f_b);
             mtv(R9, mo, m_b);
-            for (a = 0; a < 3; a++)
-                F_g[a] += f[a];
+            for (a = 0; a < 3; a++) F_g[a] += f[a];
         }
-        for (a = 0; a < 3; a++)
-            arm[a] = LP[base + 2 + a];
+        for (a = 0; a < 3; a++) arm[a] = LP[base + 2 + a];
         o = base + 5;
         for (a = 0; a < 3; a++) {
             double s = 0.0;
@@ -343,18 +302,15 @@ static void loads(const double *LP, int n_loads, int nf, int deformed, const dou
                 Q[j] += LP[o + a * nf + j] * f_b[a];
                 s += LP[o + a * nf + j] * q[j];
             }
-            if (deformed)
-                arm[a] += s;
+            if (deformed) arm[a] += s;
         }
         cr(arm, f_b, tmp);
-        for (a = 0; a < 3; a++)
-            N_b[a] += tmp[a];
+        for (a = 0; a < 3; a++) N_b[a] += tmp[a];
         if (LP[base + 1] != 0.0) {
             o = base + 5 + 3 * nf;
             for (a = 0; a < 3; a++) {
                 N_b[a] += m_b[a];
-                for (j = 0; j < nf; j++)
-                    Q[j] += LP[o + a * nf + j] * m_b[a];
+                for (j = 0; j < nf; j++) Q[j] += LP[o + a * nf + j] * m_b[a];
             }
         }
     }
@@ -362,8 +318,7 @@ static void loads(const double *LP, int n_loads, int nf, int deformed, const dou
 
 /* dT/dq_j = v^T A_j w + w^T B_j w / 2 + w^T (sum_k q_k C_jk) w + w^T D_j qdot (Cq: sum_k q_k C_kj) */
 static void dTdq(const double *P, int nf, const double *v, const double *w, const double *qd, const double *Cq,
-                 double *out)
-{
+                 double *out) {
     offsets_t o = offsets(nf);
     const double *PA = P + o.A, *PB = P + o.B, *PD = P + o.D;
     double vw[9], ww[9];
@@ -376,13 +331,11 @@ static void dTdq(const double *P, int nf, const double *v, const double *w, cons
     for (j = 0; j < nf; j++) {
         const double *Aj = PA + 9 * j, *Bj = PB + 9 * j, *Cj = Cq + 9 * j, *Dj = PD + n3 * j;
         double s = 0.0;
-        for (ab = 0; ab < 9; ab++)
-            s += Aj[ab] * vw[ab] + (0.5 * Bj[ab] + Cj[ab]) * ww[ab];
+        for (ab = 0; ab < 9; ab++) s += Aj[ab] * vw[ab] + (0.5 * Bj[ab] + Cj[ab]) * ww[ab];
         for (a = 0; a < 3; a++) {
             const double *Dja = Dj + a * nf;
             double t = 0.0;
-            for (k = 0; k < nf; k++)
-                t += Dja[k] * qd[k];
+            for (k = 0; k < nf; k++) t += Dja[k] * qd[k];
             s += w[a] * t;
         }
         out[j] = s;
@@ -390,19 +343,16 @@ static void dTdq(const double *P, int nf, const double *v, const double *w, cons
 }
 
 /* out += -(sum_ab X_ab G_ab) q, X = w w^T - |w|^2 I */
-static void geometric_force(const double *G, int nf, const double *w, const double *q, double *out)
-{
+static void geometric_force(const double *G, int nf, const double *w, const double *q, double *out) {
     double ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2], X[9];
     int n2 = nf * nf, a, b, j, k, ab;
     for (a = 0; a < 3; a++)
-        for (b = 0; b < 3; b++)
-            X[3 * a + b] = w[a] * w[b] - (a == b ? ww : 0.0);
+        for (b = 0; b < 3; b++) X[3 * a + b] = w[a] * w[b] - (a == b ? ww : 0.0);
     for (j = 0; j < nf; j++) {
         double s = 0.0;
         for (k = 0; k < nf; k++) {
             double g = 0.0;
-            for (ab = 0; ab < 9; ab++)
-                g += X[ab] * G[ab * n2 + j * nf + k];
+            for (ab = 0; ab < 9; ab++) g += X[ab] * G[ab * n2 + j * nf + k];
             s += g * q[k];
         }
         out[j] -= s;
@@ -413,9 +363,8 @@ static void geometric_force(const double *G, int nf, const double *w, const doub
  * Time derivative of the step-local state z = [phi, dpos, p_g, H, q, p_q] (12 + 2 nf); split != 0
  * (exponential scheme): N(z) = z' - L z instead, L z = [0 (12), p_q, -k q - c p_q].  work: 15 nf doubles.
  */
-static void rhs(const double *P, const double *LP, int n_loads, const double *G, int nf, int deformed,
-                const double *sv, const double *Rn9, const double *z, int split, double *out, double *work)
-{
+static void rhs(const double *P, const double *LP, int n_loads, const double *G, int nf, int deformed, const double *sv,
+                const double *Rn9, const double *z, int split, double *out, double *work) {
     double m = P[0];
     offsets_t o = offsets(nf);
     double Rrel[9], R[9], p_b[3], h[3], A9[9], J9[9], v[3], w[3], F_g[3], N_b[3], pxw[3], ppw[3], vxp[3];
@@ -435,14 +384,11 @@ static void rhs(const double *P, const double *LP, int n_loads, const double *G,
     cr(phi, w, pxw);
     cr(phi, pxw, ppw);
     c = ffx_reframe_rate_coefficient(th);
-    for (a = 0; a < 3; a++)
-        out[a] = w[a] + 0.5 * pxw[a] + c * ppw[a];
+    for (a = 0; a < 3; a++) out[a] = w[a] + 0.5 * pxw[a] + c * ppw[a];
     mv(R, v, out + 3);
-    for (a = 0; a < 3; a++)
-        out[6 + a] = F_g[a];
+    for (a = 0; a < 3; a++) out[6 + a] = F_g[a];
     cr(v, p_b, vxp);
-    for (a = 0; a < 3; a++)
-        vxp[a] = N_b[a] - vxp[a];
+    for (a = 0; a < 3; a++) vxp[a] = N_b[a] - vxp[a];
     mv(Rrel, vxp, out + 9);
     if (nf) {
         dTdq(P, nf, v, w, qd, Cq, dT);
@@ -458,17 +404,14 @@ static void rhs(const double *P, const double *LP, int n_loads, const double *G,
                 out[12 + nf + j] = dT[j] - P[o.k + j] * q[j] - P[o.c + j] * qd[j] + Q[j];
             }
         }
-        if (G)
-            geometric_force(G, nf, w, q, out + 12 + nf);
+        if (G) geometric_force(G, nf, w, q, out + 12 + nf);
     }
 }
 
 /* out (+)= [s z_frame; EX_k (q_j, p_j)]: added to out if add, else written */
-static void expmap(const double *EX, int nf, int k, const double *z, double s, int add, double *out)
-{
+static void expmap(const double *EX, int nf, int k, const double *z, double s, int add, double *out) {
     int i, j;
-    for (i = 0; i < 12; i++)
-        out[i] = (add ? out[i] : 0.0) + s * z[i];
+    for (i = 0; i < 12; i++) out[i] = (add ? out[i] : 0.0) + s * z[i];
     for (j = 0; j < nf; j++) {
         int o = 24 * j + 4 * k;
         double qj = z[12 + j], pj = z[12 + nf + j];
@@ -479,9 +422,8 @@ static void expmap(const double *EX, int nf, int k, const double *z, double s, i
 
 /* One step of y in place: classical RK4 (EX NULL) or ETD-RK4; 0 if the new state is not finite.
  * sv: the step's (3, n_loads, 6) stage values.  work: 48 nf + 9 (12 + 2 nf) doubles. */
-static int step(const double *P, const double *LP, int n_loads, const double *G, const double *EX, int nf,
-                  int deformed, const double *sv, double dt, double *y, double *work)
-{
+static int step(const double *P, const double *LP, int n_loads, const double *G, const double *EX, int nf, int deformed,
+                const double *sv, double dt, double *y, double *work) {
     double m = P[0];
     offsets_t o = offsets(nf);
     int nm = NR + nf, nz = 12 + 2 * nf, e = 12, ny = 12 + 2 * nm, a, b, i, k;
@@ -491,27 +433,21 @@ static int step(const double *P, const double *LP, int n_loads, const double *G,
     double *q = work, *q1 = q + nf, *qd1 = q1 + nf, *D = qd1 + nf, *Cq = D + 3 * nf;
     double *z0 = Cq + 9 * nf, *k1 = z0 + nz, *k2 = k1 + nz, *k3 = k2 + nz, *k4 = k3 + nz, *zs = k4 + nz;
     double *E2z0 = zs + nz, *av = E2z0 + nz, *tmp = av + nz, *rw = tmp + nz, *z;
-    for (i = 0; i < 9; i++)
-        Rn[i] = y[3 + i];
+    for (i = 0; i < 9; i++) Rn[i] = y[3 + i];
     for (a = 0; a < 6; a++) {
         double s = 0.0;
-        for (b = 0; b < 6; b++)
-            s += P[o.A6 + 6 * a + b] * y[e + nm + b];
+        for (b = 0; b < 6; b++) s += P[o.A6 + 6 * a + b] * y[e + nm + b];
         vw[a] = s;
     }
-    for (k = 0; k < nf; k++)
-        q[k] = y[e + NR + k];
+    for (k = 0; k < nf; k++) q[k] = y[e + NR + k];
     blocks(P, nf, q, A9, J9, D, Cq);
-    for (i = 0; i < nz; i++)
-        z0[i] = 0.0;
-    for (a = 0; a < 3; a++)
-        pb[a] = m * v[a] + A9[3 * a] * w[0] + A9[3 * a + 1] * w[1] + A9[3 * a + 2] * w[2];
+    for (i = 0; i < nz; i++) z0[i] = 0.0;
+    for (a = 0; a < 3; a++) pb[a] = m * v[a] + A9[3 * a] * w[0] + A9[3 * a + 1] * w[1] + A9[3 * a + 2] * w[2];
     mv(Rn, pb, z0 + 6);
     for (a = 0; a < 3; a++) {
-        double s = A9[a] * v[0] + A9[3 + a] * v[1] + A9[6 + a] * v[2]
-                   + J9[3 * a] * w[0] + J9[3 * a + 1] * w[1] + J9[3 * a + 2] * w[2];
-        for (k = 0; k < nf; k++)
-            s += D[a * nf + k] * qd[k];
+        double s = A9[a] * v[0] + A9[3 + a] * v[1] + A9[6 + a] * v[2] + J9[3 * a] * w[0] + J9[3 * a + 1] * w[1]
+                   + J9[3 * a + 2] * w[2];
+        for (k = 0; k < nf; k++) s += D[a * nf + k] * qd[k];
         z0[9 + a] = s;
     }
     for (k = 0; k < nf; k++) {
@@ -520,39 +456,31 @@ static int step(const double *P, const double *LP, int n_loads, const double *G,
     }
     if (!EX) { /* classical RK4 (consistent scheme) */
         rhs(P, LP, n_loads, G, nf, deformed, sv, Rn, z0, 0, k1, rw);
-        for (i = 0; i < nz; i++)
-            zs[i] = z0[i] + 0.5 * dt * k1[i];
+        for (i = 0; i < nz; i++) zs[i] = z0[i] + 0.5 * dt * k1[i];
         rhs(P, LP, n_loads, G, nf, deformed, sv + stage, Rn, zs, 0, k2, rw);
-        for (i = 0; i < nz; i++)
-            zs[i] = z0[i] + 0.5 * dt * k2[i];
+        for (i = 0; i < nz; i++) zs[i] = z0[i] + 0.5 * dt * k2[i];
         rhs(P, LP, n_loads, G, nf, deformed, sv + stage, Rn, zs, 0, k3, rw);
-        for (i = 0; i < nz; i++)
-            zs[i] = z0[i] + dt * k3[i];
+        for (i = 0; i < nz; i++) zs[i] = z0[i] + dt * k3[i];
         rhs(P, LP, n_loads, G, nf, deformed, sv + 2 * stage, Rn, zs, 0, k4, rw);
         z = zs;
-        for (i = 0; i < nz; i++)
-            z[i] = z0[i] + (dt / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        for (i = 0; i < nz; i++) z[i] = z0[i] + (dt / 6.0) * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     } else { /* Cox-Matthews ETD-RK4 (exponential scheme) */
         expmap(EX, nf, 1, z0, 1.0, 0, E2z0);
         rhs(P, LP, n_loads, G, nf, deformed, sv, Rn, z0, 1, k1, rw);
-        for (i = 0; i < nz; i++)
-            av[i] = E2z0[i];
+        for (i = 0; i < nz; i++) av[i] = E2z0[i];
         expmap(EX, nf, 2, k1, 0.5 * dt, 1, av);
         rhs(P, LP, n_loads, G, nf, deformed, sv + stage, Rn, av, 1, k2, rw);
-        for (i = 0; i < nz; i++)
-            zs[i] = E2z0[i];
+        for (i = 0; i < nz; i++) zs[i] = E2z0[i];
         expmap(EX, nf, 2, k2, 0.5 * dt, 1, zs);
         rhs(P, LP, n_loads, G, nf, deformed, sv + stage, Rn, zs, 1, k3, rw);
         expmap(EX, nf, 1, av, 1.0, 0, zs);
-        for (i = 0; i < nz; i++)
-            tmp[i] = 2.0 * k3[i] - k1[i];
+        for (i = 0; i < nz; i++) tmp[i] = 2.0 * k3[i] - k1[i];
         expmap(EX, nf, 2, tmp, 0.5 * dt, 1, zs);
         rhs(P, LP, n_loads, G, nf, deformed, sv + 2 * stage, Rn, zs, 1, k4, rw);
         z = zs;
         expmap(EX, nf, 0, z0, 1.0, 0, z);
         expmap(EX, nf, 3, k1, dt / 6.0, 1, z);
-        for (i = 0; i < nz; i++)
-            tmp[i] = k2[i] + k3[i];
+        for (i = 0; i < nz; i++) tmp[i] = k2[i] + k3[i];
         expmap(EX, nf, 4, tmp, dt / 3.0, 1, z);
         expmap(EX, nf, 5, k4, dt / 6.0, 1, z);
     }
@@ -562,40 +490,32 @@ static int step(const double *P, const double *LP, int n_loads, const double *G,
         for (b = 0; b < 3; b++)
             RRt[3 * a + b] = R1[3 * a] * R1[3 * b] + R1[3 * a + 1] * R1[3 * b + 1] + R1[3 * a + 2] * R1[3 * b + 2];
     mm(RRt, R1, R); /* one Newton step of the polar decomposition */
-    for (i = 0; i < 9; i++)
-        R[i] = 1.5 * R1[i] - 0.5 * R[i];
-    for (k = 0; k < nf; k++)
-        q1[k] = z[12 + k];
+    for (i = 0; i < 9; i++) R[i] = 1.5 * R1[i] - 0.5 * R[i];
+    for (k = 0; k < nf; k++) q1[k] = z[12 + k];
     blocks(P, nf, q1, A9, J9, D, Cq);
     mtv(R, z + 6, b1);
     mtv(Rrel, z + 9, b2);
     solve_mass(m, A9, J9, D, nf, b1, b2, z + 12 + nf, v1, v1 + 3, qd1);
-    for (a = 0; a < 3; a++)
-        y[a] += z[3 + a];
-    for (i = 0; i < 9; i++)
-        y[3 + i] = R[i];
-    for (i = 0; i < NR; i++)
-        y[e + i] = 0.0;
+    for (a = 0; a < 3; a++) y[a] += z[3 + a];
+    for (i = 0; i < 9; i++) y[3 + i] = R[i];
+    for (i = 0; i < NR; i++) y[e + i] = 0.0;
     for (k = 0; k < nf; k++) {
         y[e + NR + k] = q1[k];
         y[e + nm + NR + k] = qd1[k];
     }
     for (a = 0; a < 6; a++) {
         double s = 0.0;
-        for (b = 0; b < 6; b++)
-            s += P[o.A6i + 6 * a + b] * v1[b];
+        for (b = 0; b < 6; b++) s += P[o.A6i + 6 * a + b] * v1[b];
         y[e + nm + a] = s;
     }
     for (i = 0; i < ny; i++)
-        if (!isfinite(y[i]))
-            return 0;
+        if (!isfinite(y[i])) return 0;
     return 1;
 }
 
-int ffx_reframe_steps(const double *P, const double *LP, int n_loads, const double *G, const double *EX,
-                      int nf, int deformed, const double *SV, int held, double *t, double dt, int n,
-                      double *y, int *steps_done, double *work)
-{
+int ffx_reframe_steps(const double *P, const double *LP, int n_loads, const double *G, const double *EX, int nf,
+                      int deformed, const double *SV, int held, double *t, double dt, int n, double *y, int *steps_done,
+                      double *work) {
     int per_step = 3 * n_loads * 6, k, i;
     double tk = *t;
     for (k = 0; k < n; k++) {
@@ -621,10 +541,8 @@ int ffx_reframe_steps(const double *P, const double *LP, int n_loads, const doub
     return FFX_REFRAME_OK;
 }
 
-int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads, int nf, int deformed,
-                                 const double *SV, int held, double *t, double dt, int n, double *y,
-                                 int *steps_done, double *work)
-{
+int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads, int nf, int deformed, const double *SV,
+                                 int held, double *t, double dt, int n, double *y, int *steps_done, double *work) {
     return ffx_reframe_steps(P, LP, n_loads, NULL, NULL, nf, deformed, SV, held, t, dt, n, y, steps_done, work);
 }
 
@@ -632,8 +550,7 @@ int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads,
 
 /* |Phi_i q|^2 of node i: its three rows' dot products summed in column order, interleaved (independent
  * chains; each sum in the order of the reference, so the same numbers as one row after the other) */
-static double node_norm2(const double *Psi, int64_t ld, int col, int dpn, int64_t i, const double *q, int nf)
-{
+static double node_norm2(const double *Psi, int64_t ld, int col, int dpn, int64_t i, const double *q, int nf) {
     const double *r0 = Psi + (int64_t)dpn * i * ld + col, *r1 = r0 + ld, *r2 = r1 + ld;
     double u0 = 0.0, u1 = 0.0, u2 = 0.0;
     int j;
@@ -646,9 +563,8 @@ static double node_norm2(const double *Psi, int64_t ld, int col, int dpn, int64_
     return u0 * u0 + u1 * u1 + u2 * u2;
 }
 
-double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order,
-                              int n_nodes, int b, const double *q, int nf, double best)
-{
+double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order, int n_nodes,
+                              int b, const double *q, int nf, double best) {
     int stop = (b + 1) * BLOCK < n_nodes ? (b + 1) * BLOCK : n_nodes, k;
     int64_t ld = psi_cols;
     for (k = b * BLOCK; k + 1 < stop; k += 2) { /* two nodes at a time: six independent sums */
@@ -667,21 +583,17 @@ double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn,
         }
         s = sqrt(u0 * u0 + u1 * u1 + u2 * u2);
         t = sqrt(v0 * v0 + v1 * v1 + v2 * v2);
-        if (s > best)
-            best = s;
-        if (t > best)
-            best = t;
+        if (s > best) best = s;
+        if (t > best) best = t;
     }
     if (k < stop) {
         double s = sqrt(node_norm2(Psi, ld, col, dpn, order[k], q, nf));
-        if (s > best)
-            best = s;
+        if (s > best) best = s;
     }
     return best;
 }
 
-double ffx_reframe_bound(const double *C, const double *r, int b, const double *q, int nf, double qn)
-{
+double ffx_reframe_bound(const double *C, const double *r, int b, const double *q, int nf, double qn) {
     const double *c0 = C + (int64_t)b * 3 * nf, *c1 = c0 + nf, *c2 = c1 + nf;
     double u0 = 0.0, u1 = 0.0, u2 = 0.0;
     int j;
@@ -694,17 +606,14 @@ double ffx_reframe_bound(const double *C, const double *r, int b, const double *
     return (sqrt(u0 * u0 + u1 * u1 + u2 * u2) + r[b] * qn) * (1.0 + 1e-12);
 }
 
-double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order,
-                                 int n_nodes, const double *bc, const double *br, int n_blocks,
-                                 const double *sc, const double *sr, int n_super, const double *q, int nf)
-{
+double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order, int n_nodes,
+                                 const double *bc, const double *br, int n_blocks, const double *sc, const double *sr,
+                                 int n_super, const double *q, int nf) {
     double qn, best_bound = -1.0, best, sb0 = 0.0, x;
     int s, s0 = 0, b, b0, stop, j;
-    if (nf == 0)
-        return 0.0;
+    if (nf == 0) return 0.0;
     qn = 0.0;
-    for (j = 0; j < nf; j++)
-        qn += q[j] * q[j];
+    for (j = 0; j < nf; j++) qn += q[j] * q[j];
     qn = sqrt(qn);
     /* the superblock with the largest bound (bounds are recomputed below, to the same numbers, rather
      * than stored: no workspace) */
@@ -726,8 +635,7 @@ double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int d
     }
     best = ffx_reframe_block_norm(Psi, psi_cols, col, dpn, order, n_nodes, b0, q, nf, 0.0);
     for (s = 0; s < n_super; s++) {
-        if (ffx_reframe_bound(sc, sr, s, q, nf, qn) < best)
-            continue;
+        if (ffx_reframe_bound(sc, sr, s, q, nf, qn) < best) continue;
         stop = (s + 1) * BLOCK < n_blocks ? (s + 1) * BLOCK : n_blocks;
         for (b = s * BLOCK; b < stop; b++)
             if (b != b0 && ffx_reframe_bound(bc, br, b, q, nf, qn) >= best)
@@ -739,11 +647,9 @@ double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int d
 /* ------------------------------------------------------------------------------------ outputs of a state */
 
 void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const double *G, int nf, int deformed,
-                         const double *sv, const double *y, const double *PP, int n_points,
-                         const double *Psi, int psi_cols, int dpn, const int64_t *order, int n_nodes,
-                         const double *bc, const double *br, int n_blocks,
-                         const double *sc, const double *sr, int n_super, double *out, double *work)
-{
+                         const double *sv, const double *y, const double *PP, int n_points, const double *Psi,
+                         int psi_cols, int dpn, const int64_t *order, int n_nodes, const double *bc, const double *br,
+                         int n_blocks, const double *sc, const double *sr, int n_super, double *out, double *work) {
     double m = P[0];
     offsets_t o = offsets(nf);
     int nm = NR + nf, e = 12, a, b, k, j, ab, p, rigid, ooff, pstride = 3 + 3 * nf;
@@ -753,12 +659,10 @@ void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const d
     double *q = work, *qd = q + nf, *D = qd + nf, *Cq = D + 3 * nf, *Q = Cq + 9 * nf, *b3 = Q + nf;
     double *Dd = b3 + nf, *Cqd = Dd + 3 * nf, *qdd = Cqd + 9 * nf;
     const double *com = P + o.com;
-    for (k = 0; k < 9; k++)
-        R[k] = y[3 + k];
+    for (k = 0; k < 9; k++) R[k] = y[3 + k];
     for (a = 0; a < 6; a++) {
         double s = 0.0;
-        for (b = 0; b < 6; b++)
-            s += P[o.A6 + 6 * a + b] * y[e + nm + b];
+        for (b = 0; b < 6; b++) s += P[o.A6 + 6 * a + b] * y[e + nm + b];
         vw[a] = s;
     }
     for (a = 0; a < 3; a++) {
@@ -773,57 +677,46 @@ void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const d
     for (a = 0; a < 3; a++) {
         double s;
         p_b[a] = m * v[a] + A9[3 * a] * w[0] + A9[3 * a + 1] * w[1] + A9[3 * a + 2] * w[2];
-        s = A9[a] * v[0] + A9[3 + a] * v[1] + A9[6 + a] * v[2]
-            + J9[3 * a] * w[0] + J9[3 * a + 1] * w[1] + J9[3 * a + 2] * w[2];
-        for (k = 0; k < nf; k++)
-            s += D[a * nf + k] * qd[k];
+        s = A9[a] * v[0] + A9[3 + a] * v[1] + A9[6 + a] * v[2] + J9[3 * a] * w[0] + J9[3 * a + 1] * w[1]
+            + J9[3 * a + 2] * w[2];
+        for (k = 0; k < nf; k++) s += D[a * nf + k] * qd[k];
         h[a] = s;
     }
     loads(LP, n_loads, nf, deformed, sv, R, q, F_g, N_b, Q);
     mtv(R, F_g, F_b);
     cr(w, p_b, t1);
-    for (a = 0; a < 3; a++)
-        b1[a] = F_b[a] - t1[a];
+    for (a = 0; a < 3; a++) b1[a] = F_b[a] - t1[a];
     cr(w, h, t1);
     cr(v, p_b, t2);
-    for (a = 0; a < 3; a++)
-        b2[a] = N_b[a] - t1[a] - t2[a];
+    for (a = 0; a < 3; a++) b2[a] = N_b[a] - t1[a] - t2[a];
     if (nf) {
         dTdq(P, nf, v, w, qd, Cq, b3);
-        for (j = 0; j < nf; j++)
-            b3[j] += -P[o.k + j] * q[j] - P[o.c + j] * qd[j] + Q[j];
-        if (G)
-            geometric_force(G, nf, w, q, b3);
+        for (j = 0; j < nf; j++) b3[j] += -P[o.k + j] * q[j] - P[o.c + j] * qd[j] + Q[j];
+        if (G) geometric_force(G, nf, w, q, b3);
         /* minus Mdot xi (Mm quadratic in q): A(qd), B(qd) + sum_k (qd_k Cq_k + q_k Cqd_k), D(qd) */
         lin(P, nf, qd, Ad, Bd, Dd, Cqd);
         for (ab = 0; ab < 9; ab++) {
             double s = Bd[ab];
-            for (k = 0; k < nf; k++)
-                s += qd[k] * Cq[9 * k + ab] + q[k] * Cqd[9 * k + ab];
+            for (k = 0; k < nf; k++) s += qd[k] * Cq[9 * k + ab] + q[k] * Cqd[9 * k + ab];
             Jd[ab] = s;
         }
         for (a = 0; a < 3; a++) {
             double s;
             b1[a] -= Ad[3 * a] * w[0] + Ad[3 * a + 1] * w[1] + Ad[3 * a + 2] * w[2];
-            s = Ad[a] * v[0] + Ad[3 + a] * v[1] + Ad[6 + a] * v[2]
-                + Jd[3 * a] * w[0] + Jd[3 * a + 1] * w[1] + Jd[3 * a + 2] * w[2];
-            for (k = 0; k < nf; k++)
-                s += Dd[a * nf + k] * qd[k];
+            s = Ad[a] * v[0] + Ad[3 + a] * v[1] + Ad[6 + a] * v[2] + Jd[3 * a] * w[0] + Jd[3 * a + 1] * w[1]
+                + Jd[3 * a + 2] * w[2];
+            for (k = 0; k < nf; k++) s += Dd[a * nf + k] * qd[k];
             b2[a] -= s;
         }
-        for (k = 0; k < nf; k++)
-            b3[k] -= Dd[k] * w[0] + Dd[nf + k] * w[1] + Dd[2 * nf + k] * w[2];
+        for (k = 0; k < nf; k++) b3[k] -= Dd[k] * w[0] + Dd[nf + k] * w[1] + Dd[2 * nf + k] * w[2];
     }
     solve_mass(m, A9, J9, D, nf, b1, b2, b3, vdot, alpha, qdd);
     cr(w, v, t1);
-    for (a = 0; a < 3; a++)
-        a_o[a] = vdot[a] + t1[a];
+    for (a = 0; a < 3; a++) a_o[a] = vdot[a] + t1[a];
     mv(R, com, t1);
-    for (a = 0; a < 3; a++)
-        out[a] = y[a] - t1[a];
+    for (a = 0; a < 3; a++) out[a] = y[a] - t1[a];
     cr(w, com, t1);
-    for (a = 0; a < 3; a++)
-        t2[a] = v[a] - t1[a];
+    for (a = 0; a < 3; a++) t2[a] = v[a] - t1[a];
     mv(R, t2, out + 3);
     ffx_reframe_quaternion(R, out + 6);
     for (a = 0; a < 3; a++) {
@@ -838,8 +731,8 @@ void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const d
         out[22 + nf + k] = qd[k];
     }
     if (n_nodes > 0)
-        out[22 + 2 * nf] = ffx_reframe_max_node_norm(Psi, psi_cols, NR, dpn, order, n_nodes, bc, br, n_blocks,
-                                                     sc, sr, n_super, q, nf);
+        out[22 + 2 * nf] = ffx_reframe_max_node_norm(Psi, psi_cols, NR, dpn, order, n_nodes, bc, br, n_blocks, sc, sr,
+                                                     n_super, q, nf);
     else /* skipped on request (an empty node order) */
         out[22 + 2 * nf] = FFX_REFRAME_NOT_COMPUTED;
     ooff = 23 + 2 * nf;
@@ -864,19 +757,16 @@ void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const d
             const double *r = rigid ? X : yk;
             int base = base0 + 9 * rigid;
             mv(R, r, t1);
-            for (a = 0; a < 3; a++)
-                out[base + a] = y[a] + t1[a];
+            for (a = 0; a < 3; a++) out[base + a] = y[a] + t1[a];
             cr(w, r, c1);
-            for (a = 0; a < 3; a++)
-                t2[a] = v[a] + c1[a] + (rigid ? 0.0 : ud[a]);
+            for (a = 0; a < 3; a++) t2[a] = v[a] + c1[a] + (rigid ? 0.0 : ud[a]);
             mv(R, t2, out + base + 3);
             cr(w, c1, c2); /* omega x (omega x r) */
             cr(alpha, r, t1);
             cr(w, ud, t2);
             for (a = 0; a < 3; a++) {
                 acc[a] = a_o[a] + t1[a] + c2[a];
-                if (!rigid)
-                    acc[a] += 2.0 * t2[a] + udd[a];
+                if (!rigid) acc[a] += 2.0 * t2[a] + udd[a];
             }
             mv(R, acc, out + base + 6);
         }
@@ -886,11 +776,10 @@ void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const d
 void ffx_reframe_consistent_outputs(const double *P, const double *LP, int n_loads, int nf, int deformed,
                                     const double *sv, const double *y, const double *PP, int n_points,
                                     const double *Psi, int psi_cols, int dpn, const int64_t *order, int n_nodes,
-                                    const double *bc, const double *br, int n_blocks,
-                                    const double *sc, const double *sr, int n_super, double *out, double *work)
-{
-    ffx_reframe_outputs(P, LP, n_loads, NULL, nf, deformed, sv, y, PP, n_points, Psi, psi_cols, dpn, order,
-                        n_nodes, bc, br, n_blocks, sc, sr, n_super, out, work);
+                                    const double *bc, const double *br, int n_blocks, const double *sc,
+                                    const double *sr, int n_super, double *out, double *work) {
+    ffx_reframe_outputs(P, LP, n_loads, NULL, nf, deformed, sv, y, PP, n_points, Psi, psi_cols, dpn, order, n_nodes, bc,
+                        br, n_blocks, sc, sr, n_super, out, work);
 }
 
 /* ------------------------------------------------------------------------- exponential-scheme coefficients */
@@ -899,8 +788,7 @@ void ffx_reframe_consistent_outputs(const double *P, const double *LP, int n_loa
    [[f dt Lhat, I, 0, 0], [0, 0, I, 0], [0, 0, 0, I], [0, 0, 0, 0]] (f = 1, 1/2) in the balanced coordinates
    (omega_j q_j, p_j), their blocks e^Z, phi_1, phi_2, phi_3 combined as the Python reference does, scaled back. */
 int ffx_reframe_exponential_coefficients(int nf, const double *kF, const double *cF, double dt, double *EX,
-                                         double *work)
-{
+                                         double *work) {
     double *W = work, *X = work + 64, *ework = work + 128;
     double blocks[2][4][4]; /* [frac][b] 2x2 row-major: e^Z, phi_1, phi_2, phi_3 */
     int j, f, b, r, c, m, status = FFX_REFRAME_OK;

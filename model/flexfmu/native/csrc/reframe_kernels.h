@@ -112,9 +112,18 @@ extern "C" {
 
 /* index of each block's start in FFX_REFRAME_OFFSETS order, for ffx_reframe_offsets */
 enum {
-    FFX_REFRAME_O_J0 = 0, FFX_REFRAME_O_A, FFX_REFRAME_O_B, FFX_REFRAME_O_C, FFX_REFRAME_O_D,
-    FFX_REFRAME_O_K, FFX_REFRAME_O_CF, FFX_REFRAME_O_A6, FFX_REFRAME_O_A6INV, FFX_REFRAME_O_COM,
-    FFX_REFRAME_O_END, FFX_REFRAME_N_OFFSETS
+    FFX_REFRAME_O_J0 = 0,
+    FFX_REFRAME_O_A,
+    FFX_REFRAME_O_B,
+    FFX_REFRAME_O_C,
+    FFX_REFRAME_O_D,
+    FFX_REFRAME_O_K,
+    FFX_REFRAME_O_CF,
+    FFX_REFRAME_O_A6,
+    FFX_REFRAME_O_A6INV,
+    FFX_REFRAME_O_COM,
+    FFX_REFRAME_O_END,
+    FFX_REFRAME_N_OFFSETS
 };
 
 /* FFX_REFRAME_ABI_VERSION of the compiled library (check it after loading). */
@@ -139,14 +148,13 @@ int ffx_reframe_abi_version(void);
  * finite; y and *t unchanged by it) or FFX_REFRAME_STATE_NOT_FINITE (the state after that step is not
  * finite).  The Python names: flexfmu.reframe.kernels.reframe_steps / consistent_steps.
  */
-int ffx_reframe_steps(const double *P, const double *LP, int n_loads, const double *G, const double *EX,
-                      int nf, int deformed, const double *SV, int held, double *t, double dt, int n,
-                      double *y, int *steps_done, double *work);
+int ffx_reframe_steps(const double *P, const double *LP, int n_loads, const double *G, const double *EX, int nf,
+                      int deformed, const double *SV, int held, double *t, double dt, int n, double *y, int *steps_done,
+                      double *work);
 
 /* ffx_reframe_steps with G = EX = NULL (the consistent scheme without geometric stiffness). */
-int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads, int nf, int deformed,
-                                 const double *SV, int held, double *t, double dt, int n, double *y,
-                                 int *steps_done, double *work);
+int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads, int nf, int deformed, const double *SV,
+                                 int held, double *t, double dt, int n, double *y, int *steps_done, double *work);
 
 /* ---------------------------------------------------------------------------------- outputs of a state */
 
@@ -159,17 +167,16 @@ int ffx_reframe_consistent_steps(const double *P, const double *LP, int n_loads,
  * work: FFX_REFRAME_WORK_SIZE(nf) doubles.  Python: flexfmu.reframe.kernels.reframe_outputs.
  */
 void ffx_reframe_outputs(const double *P, const double *LP, int n_loads, const double *G, int nf, int deformed,
-                         const double *sv, const double *y, const double *PP, int n_points,
-                         const double *Psi, int psi_cols, int dpn, const int64_t *order, int n_nodes,
-                         const double *bc, const double *br, int n_blocks,
-                         const double *sc, const double *sr, int n_super, double *out, double *work);
+                         const double *sv, const double *y, const double *PP, int n_points, const double *Psi,
+                         int psi_cols, int dpn, const int64_t *order, int n_nodes, const double *bc, const double *br,
+                         int n_blocks, const double *sc, const double *sr, int n_super, double *out, double *work);
 
 /* ffx_reframe_outputs with G = NULL.  Python: flexfmu.reframe.kernels.consistent_outputs. */
 void ffx_reframe_consistent_outputs(const double *P, const double *LP, int n_loads, int nf, int deformed,
                                     const double *sv, const double *y, const double *PP, int n_points,
                                     const double *Psi, int psi_cols, int dpn, const int64_t *order, int n_nodes,
-                                    const double *bc, const double *br, int n_blocks,
-                                    const double *sc, const double *sr, int n_super, double *out, double *work);
+                                    const double *bc, const double *br, int n_blocks, const double *sc,
+                                    const double *sr, int n_super, double *out, double *work);
 
 /* ---------------------------------------------------------------------- max elastic displacement search */
 
@@ -177,9 +184,9 @@ void ffx_reframe_consistent_outputs(const double *P, const double *LP, int n_loa
  * max over nodes i of |Phi_i q| (Phi_i: rows dpn*i .. dpn*i+2, columns col .. col+nf-1 of Psi), exact,
  * by the block bounds (see the layout above): 0 if nf == 0.  Python: kernels.max_node_norm.
  */
-double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order,
-                                 int n_nodes, const double *bc, const double *br, int n_blocks,
-                                 const double *sc, const double *sr, int n_super, const double *q, int nf);
+double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order, int n_nodes,
+                                 const double *bc, const double *br, int n_blocks, const double *sc, const double *sr,
+                                 int n_super, const double *q, int nf);
 
 /* Upper bound of |Phi_i q| over (super)block b: (|C_b q| + r_b qn) (1 + 1e-12), C: (n, 3 nf), r: (n,),
  * qn = |q|.  Python: kernels._bound. */
@@ -187,8 +194,8 @@ double ffx_reframe_bound(const double *C, const double *r, int b, const double *
 
 /* max(best, max over the nodes of block b of |Phi_i q|) (block b: order[b*BLOCK .. min((b+1)*BLOCK,
  * n_nodes)-1]).  Python: kernels._block_norm. */
-double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order,
-                              int n_nodes, int b, const double *q, int nf, double best);
+double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order, int n_nodes,
+                              int b, const double *q, int nf, double best);
 
 /* ------------------------------------------------------------------------ exponential-scheme coefficients */
 
