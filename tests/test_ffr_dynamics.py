@@ -122,8 +122,10 @@ def test_zero_order_hold_step_is_exact():
     one = dyn.step(state, t, ZERO, ZERO, BaseMotion())
     two = dyn.step(dyn.step(state, t / 2, ZERO, ZERO, BaseMotion()), t / 2, ZERO, ZERO, BaseMotion())
     exact = 1e-4 * np.exp(-z * w * t) * (np.cos(wd * t) + z * w / wd * np.sin(wd * t))
-    np.testing.assert_allclose(one.eta, exact, rtol=1e-9, atol=1e-16)
-    np.testing.assert_allclose(two.eta, one.eta, rtol=1e-10, atol=1e-18)
+    # at this t every mode is away from its zeros: the relative tolerances alone, without absolute floors
+    assert np.min(np.abs(exact)) >= 0.1 * np.max(np.abs(exact))
+    np.testing.assert_allclose(one.eta, exact, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(two.eta, one.eta, rtol=1e-10, atol=0)
 
 
 def test_stiff_rod_reactions_equal_rigid_body_newton_euler():
