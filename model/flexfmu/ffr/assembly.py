@@ -5,7 +5,8 @@ element axes from the body's nodal vector), Eqs. 14-15 assemble
     M_fD = B2^T (sum_j B_D1^jT M_ff^j B_D1^j) B2,    K_fD likewise,
 and Eq. 16 builds B2 by deleting the columns of clamped DOFs from the identity.
 The sum is assembled directly as a sparse matrix (scatter-add of C_bar M C_bar^T),
-which is what the product with the Boolean B1 does, without forming B1.
+which is what the product with the Boolean B1 does, without forming B1.  The element
+matrices M_ff^j, K_ff^j are those of the mesh's element type (flexfmu.ffr.elements).
 """
 from __future__ import annotations
 
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from flexfmu.ffr.beam_element import element_dof_rotation, local_mass, local_stiffness
 from flexfmu.errors import require
 from flexfmu.ffr.mesh import Mesh, build_mesh
 from flexfmu.ffr.scene import Scene
@@ -65,11 +65,11 @@ def boundary_matrix(n_nodes: int, clamped_nodes) -> sp.csr_matrix:
 
 def assemble(mesh: Mesh, rotary_inertia: bool = False) -> tuple[sp.csr_matrix, sp.csr_matrix]:
     """Unconstrained body-frame M and K (sum over elements of B_D1^T M^j B_D1), plus point masses."""
-    sec, mat = mesh.scene.section, mesh.scene.material
+    sec, mat, element = mesh.scene.section, mesh.scene.material, mesh.element
     L = mesh.element_length
-    Kloc = local_stiffness(L, mat.E, mat.G, sec.A, sec.Iy, sec.Iz, sec.J)
-    Mloc = local_mass(L, mat.rho, sec.A, sec.Iy, sec.Iz, rotary_inertia=rotary_inertia)
-    Cbar = element_dof_rotation(mesh.element_rotation)
+    Kloc = element.stiffness(L, sec, mat)
+    Mloc = element.mass(L, sec, mat, rotary_inertia=rotary_inertia)
+    Cbar = element.dof_rotation(mesh.element_rotation)
     Kb = np.einsum("nij,njk,nlk->nil", Cbar, Kloc, Cbar)   # C_bar K C_bar^T
     Mb = np.einsum("nij,njk,nlk->nil", Cbar, Mloc, Cbar)
     dofs = (6 * mesh.elements[:, :, None] + np.arange(6)).reshape(-1, 12)   # B1 as index lists

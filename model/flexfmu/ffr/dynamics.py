@@ -56,7 +56,6 @@ import scipy.sparse as sp
 from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
 from flexfmu.ffr.assembly import BeamModel
-from flexfmu.ffr.beam_element import local_shape_functions
 from flexfmu.errors import require
 from flexfmu.ffr.geometric_stiffness import inertial_geometric_stiffness
 from flexfmu.ffr.kinematics import point_shape
@@ -64,7 +63,7 @@ from flexfmu.linalg.modal import Modes
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew
 
-_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)   # exact for the degree-6 products of Hermite cubics
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)   # exact for the degree-6 products of cubic translations
 INTEGRATORS = ("exact", "rk4")
 #: Classical RK4 is stable for h |lambda| up to 2 sqrt(2) = 2.83 on the imaginary axis (undamped modes) and
 #: 2.79 on the negative real axis; 2.8 is the limit used for lightly damped modes (as flexfmu.reframe.integrator's).
@@ -93,6 +92,7 @@ class InertiaIntegrals:
 def inertia_integrals(model: BeamModel) -> InertiaIntegrals:
     """Gauss quadrature (4 points per element) of the integrals above, plus point masses."""
     mesh, sec, mat = model.mesh, model.mesh.scene.section, model.mesh.scene.material
+    shape_functions = mesh.element.shape_functions
     n = model.n_dof
     n_el = len(mesh.elements)
     rhoA = mat.rho * sec.A
@@ -105,7 +105,7 @@ def inertia_integrals(model: BeamModel) -> InertiaIntegrals:
         for e in range(n_el):
             L = mesh.element_length[e]
             C = mesh.element_rotation[e]
-            S_gp[e, g] = C @ local_shape_functions(xi, L)[:3] @ np.kron(np.eye(4), C.T)
+            S_gp[e, g] = C @ shape_functions(xi, L, sec, mat)[:3] @ np.kron(np.eye(4), C.T)
         n1, n2 = mesh.elements[:, 0], mesh.elements[:, 1]
         x0_gp[:, g] = (1 - xi) * mesh.nodes[n1] + xi * mesh.nodes[n2]
         w_gp[:, g] = rhoA * 0.5 * wg * mesh.element_length

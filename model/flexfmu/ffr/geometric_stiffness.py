@@ -37,13 +37,16 @@ eps = u' + (v'^2 + w'^2) / 2 plus the Wagner term of torsion,
 
     K_G^e = int_0^L N(x) [ v'^T v' + w'^T w' + (Ip / A) theta_x'^T theta_x' ] dx,                        (3)
 
-with v' the theta_z row and w' = -theta_y row of flexfmu.ffr.beam_element.local_shape_functions (Hermite), theta_x
-linear.  For constant N this is the textbook matrix N/(30 L) [36, 3L, -36, 3L; 3L, 4L^2, -3L, -L^2; ...] per
-bending plane plus N Ip / (A L) [1, -1; -1, 1] in torsion (Przemieniecki 1968, McGuire, Gallagher & Ziemian
-2000, Sec. 9.3).  N is quadratic and v' quadratic in xi, so 4 Gauss points integrate (3) exactly.  Only the
+with the rows of v', w' and theta_x' the element type's strain_gradients (flexfmu.ffr.elements; for the
+Euler-Bernoulli element the theta_z and -theta_y rows of its Hermite interpolation, theta_x linear).  For the
+Euler-Bernoulli element and constant N this is the textbook matrix N/(30 L) [36, 3L, -36, 3L; 3L, 4L^2, -3L, -L^2;
+...] per bending plane plus N Ip / (A L) [1, -1; -1, 1] in torsion (Przemieniecki 1968, McGuire, Gallagher &
+Ziemian 2000, Sec. 9.3).  N is quadratic and v' quadratic in xi (the derivative of a cubic deflection, for both
+element types), so 4 Gauss points integrate (3) exactly.  Only the
 axial force is taken: the shear- and moment-dependent terms of the full 3D geometric stiffness are left out
 (they vanish for a straight rod under a centrifugal or uniform load along it, and are of the order of the
-bending deflection otherwise).  K_G^e is turned to body axes with C_bar K_G^e C_bar^T and assembled.
+bending deflection otherwise).  K_G^e is turned to body axes with C_bar K_G^e C_bar^T and assembled.  The element
+end forces r and the consistent loads f^e use the element type's stiffness and shape functions.
 
 Result (body frame, unconstrained DOFs), with (1) and the linearity of (2)-(3):
 
@@ -57,9 +60,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from flexfmu.ffr.assembly import BeamModel, boundary_matrix
-from flexfmu.ffr.beam_element import element_dof_rotation, local_shape_functions, local_stiffness
 from flexfmu.errors import require
+from flexfmu.ffr.assembly import BeamModel, boundary_matrix
+from flexfmu.ffr.elements import BeamElement, get_element
 
 _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(4)    # exact to degree 7: N (2) x v'^2 (4) = 6
 N_PATTERNS = 12                                           # 9 X_ab patterns (row-major a, b), then 3 a0_a
@@ -94,27 +97,28 @@ class InertialGeometricStiffness:
         return G_X, G_a0
 
 
-def _gauss_point_matrices(L: np.ndarray, ratio: np.ndarray) -> np.ndarray:
+def _gauss_point_matrices(L: np.ndarray, ratio: np.ndarray, element: BeamElement, section=None,
+                          material=None) -> np.ndarray:
     """(4, n, 12, 12): weight x [v'^T v' + w'^T w' + (Ip/A) theta_x'^T theta_x'] at each Gauss point of Eq. (3)."""
     out = np.zeros((len(_GAUSS_X), L.size, 12, 12))
     for g, (xg, wg) in enumerate(zip(_GAUSS_X, _GAUSS_W)):
         xi = 0.5 * (xg + 1.0)
         for e in range(L.size):
-            S = local_shape_functions(xi, L[e])
-            dv, dw = S[5], -S[4]
-            dt = np.zeros(12)
-            dt[3], dt[9] = -1.0 / L[e], 1.0 / L[e]
+            dv, dw, dt = element.strain_gradients(xi, L[e], section, material)
             out[g, e] = 0.5 * wg * L[e] * (np.outer(dv, dv) + np.outer(dw, dw) + ratio[e] * np.outer(dt, dt))
     return out
 
 
-def local_geometric_stiffness(L, N_gauss, Ip_over_A) -> np.ndarray:
+def local_geometric_stiffness(L, N_gauss, Ip_over_A, element: BeamElement | None = None, section=None,
+                              material=None) -> np.ndarray:
     """K_G^e of Eq. (3) in element axes, (n, 12, 12), from the axial force at the 4 Gauss points
-    N_gauss (n, 4) (N, tension > 0) of elements of length L (n,) (m); Ip_over_A (m^2) scalar or (n,)."""
+    N_gauss (n, 4) (N, tension > 0) of elements of length L (n,) (m); Ip_over_A (m^2) scalar or (n,).
+    element (default Euler-Bernoulli) and the section and material it may need give v', w' and theta_x'."""
     L = np.atleast_1d(np.asarray(L, float))
     N_gauss = np.asarray(N_gauss, float).reshape(L.size, len(_GAUSS_X))
     ratio = np.broadcast_to(np.asarray(Ip_over_A, float), L.shape)
-    return np.einsum("eg,geij->eij", N_gauss, _gauss_point_matrices(L, ratio))
+    element = get_element() if element is None else element
+    return np.einsum("eg,geij->eij", N_gauss, _gauss_point_matrices(L, ratio, element, section, material))
 
 
 def _pattern_loads(model: BeamModel):
@@ -177,10 +181,11 @@ def inertial_geometric_stiffness(model: BeamModel, *, free_hold_node: int = 0) -
     mesh = model.mesh
     scene = mesh.scene
     sec, mat = scene.section, scene.material
+    element = mesh.element
     n, n_el = model.n_dof, len(mesh.elements)
     L = mesh.element_length
     C = mesh.element_rotation                                     # (n_el, 3, 3) element -> body
-    Cbar = element_dof_rotation(C)                               # (n_el, 12, 12)
+    Cbar = element.dof_rotation(C)                               # (n_el, 12, 12)
     dofs = (6 * mesh.elements[:, :, None] + np.arange(6)).reshape(-1, 12)
 
     b, f_pm, pm_nodes, pm_mass, pm_pos = _pattern_loads(model)
@@ -196,7 +201,7 @@ def inertial_geometric_stiffness(model: BeamModel, *, free_hold_node: int = 0) -
         xi = 0.5 * (xg + 1.0)
         b_loc = np.einsum("eka,pek->pea", C, (1 - xi) * b[:, :, 0] + xi * b[:, :, 1])   # C^T b
         for e in range(n_el):
-            S = local_shape_functions(xi, L[e])[:3]               # (3, 12) translations, element axes
+            S = element.shape_functions(xi, L[e], sec, mat)[:3]   # (3, 12) translations, element axes
             f_loc[:, e] += 0.5 * wg * L[e] * b_loc[:, e] @ S
     f = np.zeros((N_PATTERNS, n))
     np.add.at(f.T, dofs, np.einsum("eij,pej->eip", Cbar, f_loc))
@@ -209,7 +214,7 @@ def inertial_geometric_stiffness(model: BeamModel, *, free_hold_node: int = 0) -
     u = (B2 @ lu.solve(np.ascontiguousarray((B2.T @ f.T)))).T    # (12, n)
 
     # Element end forces and the axial force (2) at the element ends and Gauss points.
-    K_loc = local_stiffness(L, mat.E, mat.G, sec.A, sec.Iy, sec.Iz, sec.J)
+    K_loc = element.stiffness(L, sec, mat)
     d_loc = np.einsum("eji,pej->pei", Cbar, u[:, dofs])          # C_bar^T u
     r = np.einsum("eij,pej->pei", K_loc, d_loc) - f_loc
     N1 = -r[:, :, 0]
@@ -223,7 +228,7 @@ def inertial_geometric_stiffness(model: BeamModel, *, free_hold_node: int = 0) -
     N_gauss = np.stack([axial(0.5 * (xg + 1.0)) for xg in _GAUSS_X], axis=-1)    # (12, n_el, 4)
 
     # Eq. (3) is linear in N: the Gauss-point matrices once (body axes), then weighted per pattern.
-    unit = _gauss_point_matrices(L, np.full(n_el, sec.Ip / sec.A))
+    unit = _gauss_point_matrices(L, np.full(n_el, sec.Ip / sec.A), element, sec, mat)
     unit_body = np.einsum("eij,gejk,elk->geil", Cbar, unit, Cbar)   # C_bar K_G C_bar^T
     rows = np.repeat(dofs, 12, axis=1).ravel()
     cols = np.tile(dofs, (1, 12)).ravel()

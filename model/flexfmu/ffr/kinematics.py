@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from flexfmu.ffr.beam_element import local_shape_functions
 from flexfmu.ffr.mesh import Mesh
 
 
@@ -52,7 +51,8 @@ def point_shape(mesh: Mesh, s: float, parameter: str = "s") -> PointShape:
     """Shape rows of the point at arc length ``s`` (m)."""
     e, xi = mesh.locate(s, parameter)
     C = mesh.element_rotation[e]
-    S_local = local_shape_functions(xi, mesh.element_length[e])   # (6, 12) in element axes
+    S_local = mesh.element.shape_functions(xi, mesh.element_length[e], mesh.scene.section,
+                                           mesh.scene.material)   # (6, 12) in element axes
     Cbar_T = np.kron(np.eye(4), C.T)                              # body -> element nodal coords
     S_body = np.kron(np.eye(2), C) @ S_local @ Cbar_T
     n1, n2 = mesh.elements[e]

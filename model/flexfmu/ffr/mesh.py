@@ -1,4 +1,4 @@
-"""Mesh of a scene: nodes along the polyline, two-node beam elements, element frames.
+"""Mesh of a scene: nodes along the polyline, two-node beam elements of the scene's element type, element frames.
 
 Corner nodes are shared by the two segments that meet there (displacement and
 nodal-rotation continuity in the body frame) while every element keeps its own
@@ -6,12 +6,12 @@ orientation C^ij: that is how the slope discontinuity enters (Koda et al. 2025, 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from flexfmu.ffr.beam_element import element_rotation
 from flexfmu.errors import require
+from flexfmu.ffr.elements import BeamElement, get_element
 from flexfmu.ffr.scene import Scene, check_arc_length
 
 # Extra nodes closer than this fraction of the element length to an existing node are merged into it.
@@ -22,7 +22,8 @@ _MERGE_FRACTION = 1e-6
 class Mesh:
     """nodes (N, 3) m body frame; node_s (N,) arc length m; elements (E, 2) node indices;
     element_segment (E,) polyline segment index; element_length (E,) m;
-    element_rotation (E, 3, 3) C^ij element -> body."""
+    element_rotation (E, 3, 3) C^ij element -> body; element: the element type (its matrices and interpolation,
+    flexfmu.ffr.elements), the one the scene names."""
 
     scene: Scene
     nodes: np.ndarray
@@ -32,6 +33,7 @@ class Mesh:
     element_length: np.ndarray
     element_rotation: np.ndarray
     elements_per_segment: int
+    element: BeamElement = field(default_factory=get_element)
 
     @property
     def n_nodes(self) -> int:
@@ -99,7 +101,8 @@ def build_mesh(scene: Scene, elements_per_segment: int, extra_arc_lengths=()) ->
     elements = np.vstack(elements).astype(np.int64)
     vectors = nodes[elements[:, 1]] - nodes[elements[:, 0]]
     lengths = np.linalg.norm(vectors, axis=1)
+    element = get_element(scene.element)
     return Mesh(scene=scene, nodes=nodes, node_s=node_s, elements=elements,
                 element_segment=np.concatenate(element_segment), element_length=lengths,
-                element_rotation=element_rotation(vectors / lengths[:, None]),
-                elements_per_segment=int(elements_per_segment))
+                element_rotation=element.rotation(vectors / lengths[:, None]),
+                elements_per_segment=int(elements_per_segment), element=element)

@@ -2,8 +2,9 @@
 
 A scene is a polyline of straight segments with one cross-section and one
 material, optional clamps and point masses given by arc length ``s`` (m, from
-the first point).  See docs/scene_format.md for the schema and the rule for
-the local axes of non-circular sections.
+the first point), and the beam element type (``element``, a name registered in
+flexfmu.ffr.elements; Euler-Bernoulli by default).  See docs/scene_format.md for
+the schema and the rule for the local axes of non-circular sections.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from flexfmu.core.checks import path_exists_as, shown
 from flexfmu.errors import ParameterError, require
+from flexfmu.ffr.elements import DEFAULT_ELEMENT, get_element
 
 SCHEMA_VERSION = 1
 #: Largest scene file read (bytes): a scene is a few points and constants (the built-in ones are < 1 kB); a
@@ -26,7 +28,7 @@ MAX_SCENE_BYTES = 16 * 2**20
 # close to 180 deg) have no meaningful bent-rod interpretation.
 _FOLD_BACK_COS = -1.0 + 1e-9
 _TOP_LEVEL_FIELDS = {"schema_version", "name", "description", "points", "section", "material",
-                     "clamps", "point_masses"}
+                     "clamps", "point_masses", "element"}
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,8 @@ class Section:
 
     A: area, m^2.  Iy = int z^2 dA, Iz = int y^2 dA (bending about local y / z), m^4.
     J: Saint-Venant torsion constant, m^4.  Ip = Iy + Iz: polar moment used for torsional inertia.
+    shear_coefficient: k = shear area / A of a shear-deformable element, if the scene gives it (None: the
+    element's own rule, e.g. Cowper's value for the shape).
     """
 
     A: float
@@ -42,6 +46,7 @@ class Section:
     Iz: float
     J: float
     shape: str = "generic"
+    shear_coefficient: float | None = None
 
     @property
     def Ip(self) -> float:
@@ -75,6 +80,7 @@ class Scene:
     point_masses: tuple[PointMass, ...] = ()
     description: str = ""
     source: str = field(default="", compare=False)
+    element: str = DEFAULT_ELEMENT     # a name in flexfmu.ffr.elements.ELEMENTS
 
     @property
     def segment_lengths(self) -> np.ndarray:
@@ -137,20 +143,30 @@ def _check_fields(d: dict, allowed: set[str], prefix: str) -> None:
 
 
 def section_from_dict(d) -> Section:
-    """Section constants from one of the four schema forms."""
+    """Section constants from one of the four schema forms, each with an optional ``shear_coefficient``."""
     require(isinstance(d, dict), "section", "must be an object", "circle | tube | rectangle | {A, Iy, Iz, J}")
+    if "shear_coefficient" not in d:
+        return _section_constants(d)
+    k = d["shear_coefficient"]
+    require(_is_number(k) and 0 < k <= 1, "section.shear_coefficient", f"got {shown(k)}",
+            "0 < k <= 1 (shear area / area; not its inverse)")
+    section = _section_constants(d)
+    return Section(section.A, section.Iy, section.Iz, section.J, section.shape, float(k))
+
+
+def _section_constants(d: dict) -> Section:
     shape = d.get("shape")
     if shape is None:
-        _check_fields(d, {"A", "Iy", "Iz", "J"}, "section.")
+        _check_fields(d, {"A", "Iy", "Iz", "J", "shear_coefficient"}, "section.")
         A, Iy, Iz, J = (_positive(d, k, "section") for k in ("A", "Iy", "Iz", "J"))
         return Section(A, Iy, Iz, J, "generic")
     if shape == "circle":
-        _check_fields(d, {"shape", "diameter"}, "section.")
+        _check_fields(d, {"shape", "diameter", "shear_coefficient"}, "section.")
         dia = _positive(d, "diameter", "section")
         I = math.pi * dia**4 / 64
         return Section(math.pi * dia**2 / 4, I, I, 2 * I, "circle")
     if shape == "tube":
-        _check_fields(d, {"shape", "outer_diameter", "inner_diameter"}, "section.")
+        _check_fields(d, {"shape", "outer_diameter", "inner_diameter", "shear_coefficient"}, "section.")
         do = _positive(d, "outer_diameter", "section")
         di = d.get("inner_diameter")
         require(_is_number(di) and 0 <= di < do, "section.inner_diameter",
@@ -158,7 +174,7 @@ def section_from_dict(d) -> Section:
         I = math.pi * (do**4 - di**4) / 64
         return Section(math.pi * (do**2 - di**2) / 4, I, I, 2 * I, "tube")
     if shape == "rectangle":
-        _check_fields(d, {"shape", "width", "height"}, "section.")
+        _check_fields(d, {"shape", "width", "height", "shear_coefficient"}, "section.")
         b = _positive(d, "width", "section")    # along local z
         h = _positive(d, "height", "section")   # along local y
         long_side, short_side = max(b, h), min(b, h)
@@ -248,9 +264,11 @@ def scene_from_dict(d, source: str = "") -> Scene:
 
     description = d.get("description", "")
     require(isinstance(description, str), "description", "must be a string")
+    element = d.get("element", DEFAULT_ELEMENT)
+    get_element(element, "element")           # a registered name, else ParameterError naming them
     return Scene(name=name, points=points, section=section, material=material,
                  clamps=tuple(sorted(set(clamps))), point_masses=tuple(masses),
-                 description=description, source=source)
+                 description=description, source=source, element=element)
 
 
 # ---------------------------------------------------------------- loading
