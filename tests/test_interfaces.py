@@ -91,9 +91,21 @@ def _check_balances(structure, patch, rng):
         if dpn == 6:
             rigid[dpn * i + 3:dpn * i + 6] = th0
     fit = patch.D @ rigid[patch.dofs]
-    np.testing.assert_allclose(fit[:3], u0, rtol=1e-10, atol=1e-12)
+    # D G = I to ||D G - I|| <= e (_fit_error) in the scaled coordinates [u; l theta]: e ||[u0; l th0]|| on u, / l on
+    # theta; the motion's own rounding (r_i, the cross product, the sum: gamma_4 (|u0| + |th0| x |r_i|), |.| x |.| the
+    # cross product's terms' sizes) and the product D (.) over the patch DOFs: |D| (that + gamma_dofs |rigid|)
+    ar, at = np.abs(r), np.abs(th0)
+    terms = np.stack([at[1] * ar[:, 2] + at[2] * ar[:, 1], at[2] * ar[:, 0] + at[0] * ar[:, 2],
+                      at[0] * ar[:, 1] + at[1] * ar[:, 0]], axis=1)
+    d_rigid = np.zeros(n)
+    for j in range(3):
+        d_rigid[j::dpn] = gamma(4) * (abs(u0[j]) + terms[:, j])
+    sel = patch.dofs
+    spread = np.abs(patch.D) @ (d_rigid[sel] + gamma(sel.size) * np.abs(rigid[sel]))
+    fitted = e * float(np.linalg.norm(np.r_[u0, l * th0]))
+    assert np.all(np.abs(fit[:3] - u0) <= fitted + spread[:3])
     if patch.moments:
-        np.testing.assert_allclose(fit[3:], th0, rtol=1e-10, atol=1e-12)
+        assert np.all(np.abs(fit[3:] - th0) <= fitted / l + spread[3:])
 
 
 def test_default_radius_and_node_set_patches_balance(plate, rng):
