@@ -111,7 +111,10 @@ def test_csv_physics(csv_run, beam):
     np.testing.assert_array_equal(get("out_pos_")[0], beam.nodes[0])      # default output point: node 0
     np.testing.assert_array_equal(get("pos_")[0], 0.0)                    # frame origin = mesh origin
     mass = float(beam.M[0::6, :][:, 0::6].sum())                  # total mass: unit x-translation field
-    np.testing.assert_allclose(get("com_vel_"), np.outer(t, FORCE) / mass, rtol=1e-10, atol=1e-14)
+    # m dv_com/dt = F to 1e-10 relative; the velocity at t = 0 is the A6 round trip of the initial rates (as omega's
+    # above, its rows :3), carried along with the momentum and rotated (R orthogonal: within its 2-norm)
+    v0_bound = float(np.linalg.norm(gamma(64) * np.linalg.cond(A6) * (np.abs(A6) @ (np.abs(A6inv) @ np.abs(x)))[:3]))
+    np.testing.assert_allclose(get("com_vel_"), np.outer(t, FORCE) / mass, rtol=1e-10, atol=v0_bound)
     # frame origin velocity: central difference of pos (records every 5e-4 s) agrees to O(h^2)
     pos, vel = get("pos_"), get("vel_")
     h = t[1] - t[0]
