@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import ctypes
 import shutil
+import struct
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -104,6 +106,29 @@ def refusal_messages(fmu_files, action, name: str = "bad") -> list[list[str]]:
         finally:
             inst.free()
     return logs
+
+
+#: The serialised FMU state's header (csrc/flexfmu_fmi2.c): "FLEXFMU-STATE\n", u32 format, u32 runtime, u32 FMI
+#: state, u64 payload size, u32 CRC-32 of every byte after it, u32 GUID length, the GUID, the bridge's payload.
+STATE_PREFIX = b"FLEXFMU-STATE\n"
+STATE_CRC_AT = len(STATE_PREFIX) + 20
+
+
+def state_header(blob: bytes) -> dict:
+    """The fields of a serialised state's header."""
+    at = len(STATE_PREFIX)
+    fmt, runtime, fmi_state = struct.unpack_from("<3I", blob, at)
+    payload, = struct.unpack_from("<Q", blob, at + 12)
+    crc, guid_length = struct.unpack_from("<2I", blob, at + 20)
+    return {"format": fmt, "runtime": runtime, "fmi_state": fmi_state, "payload": payload, "crc": crc,
+            "guid": blob[at + 28:at + 28 + guid_length].decode(), "payload_at": at + 28 + guid_length}
+
+
+def restamp_crc(blob: bytes) -> bytes:
+    """A serialised state with its CRC-32 computed again by zlib (an implementation independent of the FMU's): a
+    payload changed on purpose then reaches the bridge's own checks."""
+    body = bytes(blob[STATE_CRC_AT + 4:])
+    return bytes(blob[:STATE_CRC_AT]) + struct.pack("<I", zlib.crc32(body)) + body
 
 
 def fmu_checker_findings(fmu) -> str:

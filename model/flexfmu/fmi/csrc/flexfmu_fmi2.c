@@ -145,6 +145,25 @@ static const char *state_name(int state) {
 
 #define INSTANCE_MAGIC 0x464c5846u /* "FXLF": a pointer that is not one of our instances is refused */
 #define STATE_MAGIC 0x53584c46u    /* "FLXS" */
+/* the StateBox layout below, second word of a box: a box of another flexfmu build (whose second word is an FMI
+   state, 1 .. 32, in the first layout) is recognised by it before anything beyond it is read */
+#define STATE_BOX_LAYOUT 0x4c580002u
+
+/* Which runtime an FMU state belongs to: the Python bridge's states are Python objects, the native bridge's C
+   snapshots; a state of one must never reach the other. */
+#if defined(FLEXFMU_NATIVE)
+#define RUNTIME_ID 2u
+#define RUNTIME_NAME "native"
+#else
+#define RUNTIME_ID 1u
+#define RUNTIME_NAME "Python"
+#endif
+
+#if defined(_WIN32)
+#define FRONT_THREAD_LOCAL NATIVE_THREAD_LOCAL
+#else
+#define FRONT_THREAD_LOCAL __thread
+#endif
 
 typedef struct {
     uint32_t magic;
@@ -156,13 +175,18 @@ typedef struct {
     fmi2Boolean logging_on;
     size_t n_categories;
     char **categories;
-    pthread_mutex_t lock; /* FMI allows any thread; one call at a time per instance */
+    pthread_mutex_t lock;  /* FMI allows any thread; one call at a time per instance */
+    const char *running;   /* the function running (set under the lock) */
+    const char *reentered; /* a function the logger called during `running`: refused, reported on leaving */
 } Instance;
 
+/* The header (magic, layout, runtime, GUID) comes first and is read before anything else: a state from another
+   FMU, another runtime or another flexfmu build is refused before its contents are touched. */
 typedef struct {
-    uint32_t magic;
-    int fmi_state; /* the instance's FMI state when it was taken: fmi2SetFMUstate restores it too */
-    void *python;  /* the plumbing's state object */
+    uint32_t magic, layout, runtime;
+    char guid[128]; /* the FMU's GUID (cut to 127 bytes; the full GUID is compared on deserialising) */
+    int fmi_state;  /* the instance's FMI state when it was taken: fmi2SetFMUstate restores it too */
+    void *python;   /* the bridge's state (the plumbing's object, or the native snapshot) */
 } StateBox;
 
 static char *copy_string(const char *text) {
@@ -209,12 +233,38 @@ static fmi2Status fail(Instance *inst, const char *function, const char *why) {
     return fmi2Error;
 }
 
+/* The instances this thread is inside of (a call whose logger callback runs now), innermost last.  A host's logger
+   that calls back into an instance whose call is running would wait forever on the instance's lock: such a call is
+   refused instead (fmi2Error), and reported once the running call leaves. */
+#define MAX_NESTED_CALLS 16
+static FRONT_THREAD_LOCAL Instance *inside[MAX_NESTED_CALLS];
+static FRONT_THREAD_LOCAL int n_inside;
+
+static int is_inside(const Instance *inst) {
+    for (int i = 0; i < n_inside; i++)
+        if (inside[i] == inst) return 1;
+    return 0;
+}
+
+static void unlock(Instance *inst) {
+    if (n_inside > 0 && inside[n_inside - 1] == inst) n_inside--;
+    inst->running = NULL;
+    pthread_mutex_unlock(&inst->lock);
+}
+
 /* Check the instance pointer and the call sequence; lock the instance. */
 static Instance *enter(fmi2Component c, Function f, fmi2Status *refused) {
     Instance *inst = c;
     *refused = fmi2Error;
     if (!inst || inst->magic != INSTANCE_MAGIC) return NULL; /* no logger to tell */
+    if (is_inside(inst)) { /* from the logger of this instance's running call: no logging here (it would recurse) */
+        if (!inst->reentered) inst->reentered = CALLS[f].name; /* this thread holds the lock: safe */
+        return NULL;
+    }
+    if (n_inside == MAX_NESTED_CALLS) return NULL; /* loggers calling other instances, nested that deep */
     pthread_mutex_lock(&inst->lock);
+    inside[n_inside++] = inst;
+    inst->running = CALLS[f].name;
     char why[256];
     if (CALLS[f].unsupported) {
         fail(inst, CALLS[f].name, CALLS[f].unsupported);
@@ -224,12 +274,22 @@ static Instance *enter(fmi2Component c, Function f, fmi2Status *refused) {
     } else {
         return inst;
     }
-    pthread_mutex_unlock(&inst->lock);
+    unlock(inst);
     return NULL;
 }
 
 static fmi2Status leave(Instance *inst, int status) {
-    pthread_mutex_unlock(&inst->lock);
+    if (inst->reentered) { /* once per call: a logger that calls again while told is refused again, silently */
+        char message[512];
+        snprintf(message, sizeof message,
+                 "%s: called from the logger callback while %s was running on this instance; refused (fmi2Error): "
+                 "call the FMU after the callback returns",
+                 inst->reentered, inst->running ? inst->running : "a call");
+        inst->reentered = NULL;
+        emit(inst, fmi2Error, "logStatusError", message);
+        inst->reentered = NULL;
+    }
+    unlock(inst);
     return (fmi2Status)status;
 }
 
@@ -494,7 +554,7 @@ void fmi2FreeInstance(fmi2Component c) {
     Instance *inst = enter(c, F_FreeInstance, &refused);
     if (!inst) return;
     inst->bridge->free_instance(inst->slave);
-    pthread_mutex_unlock(&inst->lock);
+    unlock(inst);
     free_instance_memory(inst);
 }
 
@@ -600,15 +660,46 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 
 /* ---- FMI 2.0: FMU state ------------------------------------------------------------------------ */
 
-/* Serialised: "FLEXFMU-STATE\n" (14 bytes), format (u32), FMI state (u32), GUID length (u32), the
-   GUID, then the plumbing's bytes.  The GUID ties a state to the FMU (and build) that wrote it. */
+/* Serialised (little-endian): "FLEXFMU-STATE\n" (14 bytes), u32 format (2), u32 runtime (1 Python, 2 native),
+   u32 FMI state, u64 payload size, u32 CRC-32 of all the bytes after it, u32 GUID length, the GUID, then the
+   bridge's payload.  The GUID ties a state to the FMU (and build) that wrote it, the runtime to its bridge, the size
+   and the checksum refuse a truncated or damaged state before the bridge reads it. */
 static const char STATE_HEADER[] = "FLEXFMU-STATE\n";
 #define HEADER_SIZE (sizeof STATE_HEADER - 1)
-#define STATE_FORMAT 1u
+#define STATE_FORMAT 2u
+#define FIXED_HEADER (HEADER_SIZE + 28) /* format, runtime, FMI state, size (8), CRC, GUID length */
+#define CRC_AT (HEADER_SIZE + 20)
 
-static StateBox *box_of(fmi2FMUstate state) {
+/* CRC-32 (IEEE 802.3, as zlib's crc32) of n bytes, bit by bit: states are small and this runs per serialisation. */
+static uint32_t crc32_of(const unsigned char *bytes, size_t n) {
+    uint32_t crc = 0xffffffffu;
+    for (size_t i = 0; i < n; i++) {
+        crc ^= bytes[i];
+        for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+/* The box of a state this instance may use, or NULL (why says what it is): the header is read first. */
+static StateBox *box_of_instance(const Instance *inst, fmi2FMUstate state, const char **why) {
     StateBox *box = (StateBox *)state;
-    return box && box->magic == STATE_MAGIC ? box : NULL;
+    *why = "not an FMU state (or it was freed)";
+    if (!box || box->magic != STATE_MAGIC) return NULL;
+    *why = "a state of another flexfmu build (its layout differs)";
+    if (box->layout != STATE_BOX_LAYOUT) return NULL;
+    *why = box->runtime == 1u ? "a state of a Python-runtime FMU; this FMU runs the " RUNTIME_NAME " runtime"
+                              : "a state of a native-runtime FMU; this FMU runs the " RUNTIME_NAME " runtime";
+    if (box->runtime != RUNTIME_ID) return NULL;
+    *why = "a state of another FMU (its GUID differs)";
+    if (strncmp(box->guid, inst->guid, sizeof box->guid - 1) != 0) return NULL;
+    return box;
+}
+
+static void label_box(const Instance *inst, StateBox *box) {
+    box->magic = STATE_MAGIC;
+    box->layout = STATE_BOX_LAYOUT;
+    box->runtime = RUNTIME_ID;
+    snprintf(box->guid, sizeof box->guid, "%s", inst->guid);
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
@@ -616,7 +707,8 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Instance *inst = enter(c, F_GetFMUstate, &refused);
     if (!inst) return refused;
     if (!FMUstate) return leave(inst, fail(inst, "fmi2GetFMUstate", "FMUstate is NULL"));
-    StateBox *box = *FMUstate ? box_of(*FMUstate) : NULL;
+    const char *why;
+    StateBox *box = *FMUstate ? box_of_instance(inst, *FMUstate, &why) : NULL;
     if (*FMUstate && !box) return leave(inst, fail(inst, "fmi2GetFMUstate", "*FMUstate is not a state of this FMU"));
     void *python = NULL;
     int status = inst->bridge->get_state(inst->slave, &python);
@@ -627,7 +719,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
         inst->bridge->free_state(python);
         return leave(inst, fail(inst, "fmi2GetFMUstate", "out of memory"));
     }
-    box->magic = STATE_MAGIC;
+    label_box(inst, box);
     box->fmi_state = inst->state;
     box->python = python;
     *FMUstate = box;
@@ -638,8 +730,13 @@ fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate FMUstate) {
     fmi2Status refused;
     Instance *inst = enter(c, F_SetFMUstate, &refused);
     if (!inst) return refused;
-    StateBox *box = box_of(FMUstate);
-    if (!box) return leave(inst, fail(inst, "fmi2SetFMUstate", "FMUstate is not a state of this FMU (or was freed)"));
+    const char *why;
+    StateBox *box = box_of_instance(inst, FMUstate, &why);
+    if (!box) {
+        char text[256];
+        snprintf(text, sizeof text, "FMUstate is not a state of this FMU: %s", why);
+        return leave(inst, fail(inst, "fmi2SetFMUstate", text));
+    }
     int status = inst->bridge->set_state(inst->slave, box->python);
     if (status <= fmi2Warning)
         inst->state = box->fmi_state;
@@ -653,7 +750,8 @@ fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *FMUstate) {
     Instance *inst = enter(c, F_FreeFMUstate, &refused);
     if (!inst) return refused;
     if (!FMUstate || !*FMUstate) return leave(inst, fmi2OK);
-    StateBox *box = box_of(*FMUstate);
+    const char *why;
+    StateBox *box = box_of_instance(inst, *FMUstate, &why);
     if (!box) return leave(inst, fail(inst, "fmi2FreeFMUstate", "*FMUstate is not a state of this FMU"));
     inst->bridge->free_state(box->python);
     box->magic = 0;
@@ -672,13 +770,21 @@ static uint32_t get_u32(const char *at) {
     return value;
 }
 
-static size_t header_size(const Instance *inst) { return HEADER_SIZE + 12 + strlen(inst->guid); }
+static void put_u64(char *at, uint64_t value) {
+    put_u32(at, (uint32_t)value);
+    put_u32(at + 4, (uint32_t)(value >> 32));
+}
+
+static uint64_t get_u64(const char *at) { return (uint64_t)get_u32(at) | (uint64_t)get_u32(at + 4) << 32; }
+
+static size_t header_size(const Instance *inst) { return FIXED_HEADER + strlen(inst->guid); }
 
 fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate FMUstate, size_t *size) {
     fmi2Status refused;
     Instance *inst = enter(c, F_SerializedFMUstateSize, &refused);
     if (!inst) return refused;
-    StateBox *box = box_of(FMUstate);
+    const char *why;
+    StateBox *box = box_of_instance(inst, FMUstate, &why);
     if (!box || !size) return leave(inst, fail(inst, "fmi2SerializedFMUstateSize", "not a state of this FMU"));
     size_t n = 0;
     int status = inst->bridge->serialize_state(inst->slave, box->python, NULL, &n);
@@ -690,17 +796,32 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate, fmi2Byt
     fmi2Status refused;
     Instance *inst = enter(c, F_SerializeFMUstate, &refused);
     if (!inst) return refused;
-    StateBox *box = box_of(FMUstate);
+    const char *why;
+    StateBox *box = box_of_instance(inst, FMUstate, &why);
     if (!box || !serializedState) return leave(inst, fail(inst, "fmi2SerializeFMUstate", "not a state of this FMU"));
-    size_t head = header_size(inst);
-    if (size < head) return leave(inst, fail(inst, "fmi2SerializeFMUstate", "size is smaller than the state"));
+    size_t head = header_size(inst), payload = 0;
+    int status = inst->bridge->serialize_state(inst->slave, box->python, NULL, &payload);
+    if (status > fmi2Warning) return leave(inst, status);
+    if (size < head + payload) {
+        char text[256];
+        snprintf(text, sizeof text, "size: got %zu bytes, the state needs %zu (fmi2SerializedFMUstateSize)", size,
+                 head + payload);
+        return leave(inst, fail(inst, "fmi2SerializeFMUstate", text));
+    }
     memcpy(serializedState, STATE_HEADER, HEADER_SIZE);
     put_u32(serializedState + HEADER_SIZE, STATE_FORMAT);
-    put_u32(serializedState + HEADER_SIZE + 4, (uint32_t)box->fmi_state);
-    put_u32(serializedState + HEADER_SIZE + 8, (uint32_t)strlen(inst->guid));
-    memcpy(serializedState + HEADER_SIZE + 12, inst->guid, strlen(inst->guid));
-    size_t rest = size - head;
-    int status = inst->bridge->serialize_state(inst->slave, box->python, serializedState + head, &rest);
+    put_u32(serializedState + HEADER_SIZE + 4, RUNTIME_ID);
+    put_u32(serializedState + HEADER_SIZE + 8, (uint32_t)box->fmi_state);
+    put_u64(serializedState + HEADER_SIZE + 12, (uint64_t)payload);
+    put_u32(serializedState + HEADER_SIZE + 24, (uint32_t)strlen(inst->guid));
+    memcpy(serializedState + FIXED_HEADER, inst->guid, strlen(inst->guid));
+    size_t rest = payload;
+    status = inst->bridge->serialize_state(inst->slave, box->python, serializedState + head, &rest);
+    if (status > fmi2Warning) return leave(inst, status);
+    if (rest != payload)
+        return leave(inst, fail(inst, "fmi2SerializeFMUstate", "the state changed size while written"));
+    put_u32(serializedState + CRC_AT,
+            crc32_of((const unsigned char *)serializedState + CRC_AT + 4, head + payload - CRC_AT - 4));
     return leave(inst, status);
 }
 
@@ -711,19 +832,41 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     Instance *inst = enter(c, F_DeSerializeFMUstate, &refused);
     if (!inst) return refused;
     if (!serializedState || !FMUstate) return leave(inst, fail(inst, name, "serializedState or FMUstate is NULL"));
-    if (size < HEADER_SIZE + 12 || memcmp(serializedState, STATE_HEADER, HEADER_SIZE) != 0)
+    if (size < HEADER_SIZE + 4 || memcmp(serializedState, STATE_HEADER, HEADER_SIZE) != 0)
         return leave(inst, fail(inst, name, "the bytes are not a serialized flexfmu FMU state (bad header)"));
     uint32_t format = get_u32(serializedState + HEADER_SIZE);
-    uint32_t fmi_state = get_u32(serializedState + HEADER_SIZE + 4);
-    uint32_t guid_length = get_u32(serializedState + HEADER_SIZE + 8);
-    if (format != STATE_FORMAT)
-        return leave(inst, fail(inst, name, "the state was serialized in another format version"));
-    if (guid_length != strlen(inst->guid) || size < header_size(inst)
-        || memcmp(serializedState + HEADER_SIZE + 12, inst->guid, guid_length) != 0)
+    if (format != STATE_FORMAT) {
+        char text[160];
+        snprintf(text, sizeof text, "the state was serialized in format %u; this FMU reads format %u", (unsigned)format,
+                 STATE_FORMAT);
+        return leave(inst, fail(inst, name, text));
+    }
+    if (size < FIXED_HEADER) return leave(inst, fail(inst, name, "the state is truncated (shorter than its header)"));
+    uint32_t runtime = get_u32(serializedState + HEADER_SIZE + 4);
+    uint32_t fmi_state = get_u32(serializedState + HEADER_SIZE + 8);
+    uint64_t payload = get_u64(serializedState + HEADER_SIZE + 12);
+    uint32_t guid_length = get_u32(serializedState + HEADER_SIZE + 24);
+    if (guid_length > size - FIXED_HEADER || payload != size - FIXED_HEADER - guid_length) {
+        char text[200];
+        snprintf(text, sizeof text, "the state is truncated or extended: %zu bytes, its header says %llu", size,
+                 (unsigned long long)(FIXED_HEADER + (uint64_t)guid_length + payload));
+        return leave(inst, fail(inst, name, text));
+    }
+    if (get_u32(serializedState + CRC_AT)
+        != crc32_of((const unsigned char *)serializedState + CRC_AT + 4, size - CRC_AT - 4))
+        return leave(inst, fail(inst, name, "the state is damaged (its CRC-32 checksum does not match its bytes)"));
+    if (runtime != RUNTIME_ID)
+        return leave(inst,
+                     fail(inst, name,
+                          runtime == 1u
+                              ? "the state is of a Python-runtime FMU; this FMU runs the " RUNTIME_NAME " runtime"
+                              : "the state is of a native-runtime FMU; this FMU runs the " RUNTIME_NAME " runtime"));
+    if (guid_length != strlen(inst->guid) || memcmp(serializedState + FIXED_HEADER, inst->guid, guid_length) != 0)
         return leave(inst, fail(inst, name, "the state is of another FMU or build (its GUID differs)"));
     if (!(fmi_state & ALL_STATES) || (fmi_state & (fmi_state - 1)))
         return leave(inst, fail(inst, name, "the state's FMI state field is invalid"));
-    StateBox *box = *FMUstate ? box_of(*FMUstate) : NULL;
+    const char *why;
+    StateBox *box = *FMUstate ? box_of_instance(inst, *FMUstate, &why) : NULL;
     if (*FMUstate && !box) return leave(inst, fail(inst, name, "*FMUstate is not a state of this FMU"));
     void *python = NULL;
     size_t head = header_size(inst);
@@ -735,7 +878,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
         inst->bridge->free_state(python);
         return leave(inst, fail(inst, name, "out of memory"));
     }
-    box->magic = STATE_MAGIC;
+    label_box(inst, box);
     box->fmi_state = (int)fmi_state;
     box->python = python;
     *FMUstate = box;
