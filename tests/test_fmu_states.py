@@ -169,3 +169,55 @@ def test_a_logger_that_calls_back_is_refused_and_never_deadlocks(ffrbeams, runti
     assert "answers [3" in out                            # the call from the logger: fmi2Error
     assert "called from the logger callback while fmi2DoStep was running" in out, out
     assert "answered after" in out
+
+
+@pytest.mark.parametrize("runtime", ["python", "native"])
+def test_the_clock_is_checked_in_absolute_terms_at_a_large_start_time(ffrbeams, runtime):
+    """From t0 = 1e6 s with 0.1 ms steps the old relative check (1e-9 |t| = 1 ms) let a skipped step through.  The
+    clock is the host's last point plus its step: a host computing t(k) = t0 + k h and passing the constant h, and
+    one passing h = t(k+1) - t(k), step on for 300 steps; a skipped step, a repeated one and one off by 1e-4 h
+    (1e-8 s, beyond 16 eps t0 = 3.6e-9 s) are refused; fmi2LastSuccessfulTime is the host's time."""
+    t0, h = 1e6, 1e-4
+    for host in ("constant step", "clock step"):
+        inst = Instance(ffrbeams[runtime], "clock", start_time=t0).initialize()
+        try:
+            for k in range(300):
+                t, t_next = t0 + k * h, t0 + (k + 1) * h
+                inst.fmu.doStep(currentCommunicationPoint=t, communicationStepSize=h if host == "constant step"
+                                else t_next - t)
+            assert inst.fmu.getRealStatus(2) == pytest.approx(t0 + 300 * h, rel=0, abs=64 * 2.2e-16 * t0)
+            for label, t in {"skipped": t0 + 301 * h, "repeated": t0 + 299 * h,
+                             "off by 1e-4 h": t0 + 300 * h + 1e-8}.items():
+                inst.log.clear()
+                state = inst.fmu.getFMUstate()
+                inst.expect_failure(inst.fmu.doStep, currentCommunicationPoint=t, communicationStepSize=h)
+                assert any("currentCommunicationPoint" in m for _, _, m in inst.log), (host, label, inst.log)
+                inst.fmu.setFMUstate(state)                   # back to StepComplete at t0 + 300 h
+                inst.fmu.freeFMUstate(state)
+            inst.fmu.doStep(currentCommunicationPoint=t0 + 300 * h, communicationStepSize=h)
+        finally:
+            inst.free()
+
+
+def test_a_python_state_whose_time_is_not_finite_is_refused(ffrbeams):
+    """A serialised Python-FMU state with NaN in its simulator's time (checksum stamped again, so the payload's own
+    check is what refuses it) or in the FMU's clock."""
+    import json
+    inst = stepped(ffrbeams["python"], "nan")
+    try:
+        blob = bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
+        at = state_header(blob)["payload_at"]
+        for where in ("sim", "clock"):
+            payload = json.loads(blob[at:])
+            if where == "sim":
+                payload["sim"]["time"] = float("nan")
+            else:
+                payload["clock"] = float("nan")
+            new_payload = json.dumps(payload).encode()            # NaN as JSON's extension: what a file can hold
+            size_at = len(STATE_PREFIX) + 12
+            body = blob[:size_at] + len(new_payload).to_bytes(8, "little") + blob[size_at + 8:at] + new_payload
+            inst.log.clear()
+            inst.expect_failure(inst.fmu.deSerializeFMUstate, restamp_crc(body))
+            assert any("not a finite number" in m for _, _, m in inst.log), (where, inst.log)
+    finally:
+        inst.free()

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import asdict, fields
 from typing import Protocol, runtime_checkable
 
@@ -28,10 +29,14 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Variability, Inte
 from flexfmu.errors import FlexfmuError, StepRejected
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
-#: relative tolerance on currentCommunicationPoint against the FMU's own time
-TIME_RTOL = 1e-9
+#: currentCommunicationPoint must equal the FMU's clock within CLOCK_EPS units of roundoff of the time (eps |t|):
+#: the clock is the host's own (currentCommunicationPoint + communicationStepSize of the last step), so what differs
+#: is the rounding of one step (the host's t(k) + h against its t(k+1): a few ulps), never a sum over the run; a
+#: skipped or repeated step differs by a whole step and is refused, at any start time.
+CLOCK_EPS = 16.0
+EPS = sys.float_info.epsilon
 #: format of the FMU state's content (the binary adds its own header with the GUID)
-STATE_FORMAT = 1
+STATE_FORMAT = 2
 _KIND = {str: String, int: Integer, float: Real, bool: Boolean}
 _TYPE_NAME = {Real: "Real", Integer: "Integer", Boolean: "Boolean", String: "String"}
 
@@ -129,6 +134,7 @@ class Plumbing:
         self._sim = None
         self._vector_api = False
         self._start_time = 0.0
+        self._clock = 0.0                                     # the host's time of the next step's start
         if hasattr(self, "_all_setters"):
             self._update_settable()
 
@@ -286,7 +292,7 @@ class Plumbing:
 
     # ---- FMI calls (the binary has checked the call sequence and the arguments' finiteness)
     def setup_experiment(self, start_time, stop_time, tolerance):
-        self._start_time = float(start_time)
+        self._start_time = self._clock = float(start_time)
 
     def enter_initialization_mode(self):
         pass
@@ -303,8 +309,8 @@ class Plumbing:
 
     def do_step(self, current_time, step_size):
         sim = self._sim
-        now = self._start_time + sim.time
-        if abs(current_time - now) > TIME_RTOL * max(1.0, abs(now)):
+        now = self._clock
+        if abs(current_time - now) > CLOCK_EPS * EPS * max(abs(current_time), abs(now)):
             raise FmiStatus(f"currentCommunicationPoint: got {current_time!r} s, expected the FMU's time "
                             f"{now!r} s (roll back with fmi2SetFMUstate to step from another time)")
         try:
@@ -312,6 +318,7 @@ class Plumbing:
                 self._give_inputs()
             self._outputs_valid = 0           # from here on the outputs are those of another state
             sim.step(step_size)
+            self._clock = current_time + step_size    # the host's next communication point, as the host adds it
         except StepRejected as exc:
             raise FmiStatus(str(exc), DISCARD) from None
         except (FlexfmuError, ArithmeticError) as exc:
@@ -322,7 +329,7 @@ class Plumbing:
                 self._log_messages()
 
     def last_successful_time(self):
-        return self._start_time + (self._sim.time if self._sim is not None else 0.0)
+        return self._clock
 
     def terminate(self):
         pass
@@ -338,7 +345,7 @@ class Plumbing:
         if self._sim is not None and self._outputs_valid < 2:
             self._read_outputs()
         return {"format": STATE_FORMAT, "model": type(self.slave).__name__, "values": dict(self._values),
-                "inputs": list(self._inputs), "outputs": list(self._outputs), "start_time": self._start_time,
+                "inputs": list(self._inputs), "outputs": list(self._outputs), "start_time": self._start_time, "clock": self._clock,
                 "sim": None if self._sim is None else self._sim.get_state()}
 
     def set_fmu_state(self, state):
@@ -358,6 +365,7 @@ class Plumbing:
         self._inputs[:] = state["inputs"]          # in place: the input setters hold this list
         self._outputs = list(state["outputs"])
         self._start_time = state["start_time"]
+        self._clock = state["clock"]
         self._sim = sim
         self._update_settable()
         self._vector_api = isinstance(sim, VectorSimulator)
@@ -398,10 +406,16 @@ class Plumbing:
                     and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
                             for v in column)):
                 bad(f"{key} are not {size} finite numbers")
-        if not isinstance(state.get("start_time"), (int, float)) or not math.isfinite(state["start_time"]):
-            bad("start_time")
+        for key in ("start_time", "clock"):
+            if not isinstance(state.get(key), (int, float)) or isinstance(state[key], bool) \
+                    or not math.isfinite(state[key]):
+                bad(f"{key} is not a finite number")
         if state.get("sim") is not None and not isinstance(state["sim"], dict):
             bad("simulator state")
+        if isinstance(state.get("sim"), dict) and "time" in state["sim"]:
+            t = state["sim"]["time"]
+            if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t):
+                bad("the simulator's time is not a finite number")
 
 
 _ALLOWED = {Real: "a finite number", Integer: "an integer", Boolean: "a boolean", String: "a UTF-8 string"}

@@ -26,6 +26,7 @@
  * Over 500 lines on purpose: the plumbing's job in C (model file, variables, checks, FMU states), one section
  * each; the model's equations are in the kinds.
  */
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -42,7 +43,7 @@ static const char FILE_MAGIC[16] = {'f', 'l', 'e', 'x', 'f', 'm', 'u', '-', 'n',
 #define FILE_VERSION 1u
 /* the serialised FMU state's content (after the front's header) */
 static const char STATE_MAGIC[8] = {'F', 'X', 'N', 'A', 'T', 'I', 'V', 'E'};
-#define STATE_VERSION 1u
+#define STATE_VERSION 2u
 
 enum { REAL = 0, INTEGER = 1, BOOLEAN = 2, STRING = 3 };
 enum { PARAMETER = 0, INPUT = 1, OUTPUT = 2 };
@@ -408,6 +409,7 @@ typedef struct {
     int initialised;
     unsigned char *valid; /* per output */
     double time, start_time;
+    double clock;   /* the host's time of the next step's start (flexfmu.fmi.plumbing: the clock) */
     double *values; /* per variable: parameters' and inputs' values (outputs, strings: 0) */
     double *held;   /* the inputs the kind got at the last step (or initialisation) */
     double *outputs;
@@ -604,6 +606,7 @@ static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
     memcpy(to->valid, from->valid, m->layout.n_outputs);
     to->time = from->time;
     to->start_time = from->start_time;
+    to->clock = from->clock;
     memcpy(to->values, from->values, m->n_vars * sizeof *to->values);
     memcpy(to->held, from->held, m->layout.n_inputs * sizeof *to->held);
     memcpy(to->outputs, from->outputs, m->layout.n_outputs * sizeof *to->outputs);
@@ -621,7 +624,7 @@ static void clear(Slave *s) {
     memset(now->x, 0, m->nx * sizeof *now->x);
     memset(now->valid, 0, m->layout.n_outputs);
     now->initialised = 0;
-    now->time = now->start_time = 0.0;
+    now->time = now->start_time = now->clock = 0.0;
     if (s->sim) m->kind->free_sim(s->sim);
     s->sim = NULL;
 }
@@ -828,7 +831,7 @@ static void free_instance(void *slave) { free_slave(slave); }
 static int setup_experiment(void *slave, int tolerance_defined, double tolerance, double start_time,
                             int stop_time_defined, double stop_time) {
     (void)tolerance_defined, (void)tolerance, (void)stop_time_defined, (void)stop_time;
-    ((Slave *)slave)->now.start_time = start_time;
+    ((Slave *)slave)->now.start_time = ((Slave *)slave)->now.clock = start_time;
     return BRIDGE_OK;
 }
 
@@ -863,7 +866,9 @@ static int simple_call(void *slave, BridgeSimpleCall call) {
     }
 }
 
-#define TIME_RTOL 1e-9 /* flexfmu.fmi.plumbing.TIME_RTOL */
+/* flexfmu.fmi.plumbing.CLOCK_EPS: currentCommunicationPoint equals the clock within 16 eps |t| (the rounding of one
+   step: the clock is the host's last point plus its step, never a sum over the run) */
+#define CLOCK_EPS 16.0
 
 static int do_step(void *slave, double current_time, double h) {
     Slave *s = slave;
@@ -873,8 +878,8 @@ static int do_step(void *slave, double current_time, double h) {
         return refuse(s, BRIDGE_ERROR,
                       "fmi2DoStep: the instance is not initialised (its FMU state was taken before "
                       "fmi2ExitInitializationMode)");
-    double t_now = now->start_time + now->time;
-    if (fabs(current_time - t_now) > TIME_RTOL * fmax(1.0, fabs(t_now))) {
+    double t_now = now->clock;
+    if (fabs(current_time - t_now) > CLOCK_EPS * DBL_EPSILON * fmax(fabs(current_time), fabs(t_now))) {
         char got[64], expected[64];
         native_repr(current_time, got, sizeof got);
         native_repr(t_now, expected, sizeof expected);
@@ -931,6 +936,7 @@ static int do_step(void *slave, double current_time, double h) {
     memcpy(now->x, x, m->nx * sizeof *x);
     memcpy(s->state_held, now->held, m->layout.n_inputs * sizeof *now->held);
     now->time = t;
+    now->clock = current_time + h; /* the host's next communication point, as the host adds it */
     return BRIDGE_OK;
 }
 
@@ -1141,12 +1147,13 @@ static int set_state(void *slave, void *state) {
 }
 
 static size_t serialized_size(const Model *m) {
-    return 8 + 4 * 6 + 8 * (2 + m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx);
+    return 8 + 4 * 6 + 8 * (3 + m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx);
 }
 
 /* Layout (little-endian): "FXNATIVE", u32 STATE_VERSION, u32 n_vars, u32 n_inputs, u32 n_outputs, u32 nx,
    u32 flags (1: initialised, 2: outputs valid, 4: deferred outputs valid too; a state without 4 has them computed
-   when read), f64 time (since the start), f64 start time, f64 values[n_vars] (parameters, inputs; 0 for outputs and
+   when read), f64 time (since the start), f64 start time, f64 clock (the host's time of the next step's start),
+   f64 values[n_vars] (parameters, inputs; 0 for outputs and
    strings), f64 held[n_inputs], f64 outputs[n_outputs], f64 x[nx]. */
 static int serialize_state(void *slave, void *state, char *bytes, size_t *size) {
     Slave *s = slave;
@@ -1175,6 +1182,7 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
     unsigned char *at = b + 32;
     put_f64(at, st->time), at += 8;
     put_f64(at, st->start_time), at += 8;
+    put_f64(at, st->clock), at += 8;
     for (size_t i = 0; i < m->n_vars; i++, at += 8) put_f64(at, st->values[i]);
     for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) put_f64(at, st->held[i]);
     for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) put_f64(at, st->outputs[i]);
@@ -1213,12 +1221,13 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     const unsigned char *at = b + 32;
     st->time = f64_of(at), at += 8;
     st->start_time = f64_of(at), at += 8;
+    st->clock = f64_of(at), at += 8;
     for (size_t i = 0; i < m->n_vars; i++, at += 8) st->values[i] = f64_of(at);
     for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) st->held[i] = f64_of(at);
     for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) st->outputs[i] = f64_of(at);
     for (size_t i = 0; i < m->nx; i++, at += 8) st->x[i] = f64_of(at);
     const char *bad = NULL;
-    if (!isfinite(st->time) || !isfinite(st->start_time)) bad = "time not finite";
+    if (!isfinite(st->time) || !isfinite(st->start_time) || !isfinite(st->clock)) bad = "time not finite";
     for (size_t i = 0; !bad && i < m->n_vars; i++) {
         const Variable *v = &m->vars[i];
         if (!isfinite(st->values[i]))
@@ -1243,7 +1252,7 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
 
 static int last_successful_time(void *slave, double *time) {
     Slave *s = slave;
-    *time = s->now.start_time + (s->sim ? s->now.time : 0.0);
+    *time = s->now.clock;
     return BRIDGE_OK;
 }
 
