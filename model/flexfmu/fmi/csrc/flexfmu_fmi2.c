@@ -160,9 +160,13 @@ static const char *state_name(int state) {
 #endif
 
 #if defined(_WIN32)
-#define FRONT_THREAD_LOCAL NATIVE_THREAD_LOCAL
+typedef DWORD ThreadId;
+static ThreadId this_thread(void) { return GetCurrentThreadId(); }
+static int same_thread(ThreadId a, ThreadId b) { return a == b; }
 #else
-#define FRONT_THREAD_LOCAL __thread
+typedef pthread_t ThreadId;
+static ThreadId this_thread(void) { return pthread_self(); }
+static int same_thread(ThreadId a, ThreadId b) { return pthread_equal(a, b); }
 #endif
 
 typedef struct {
@@ -175,9 +179,11 @@ typedef struct {
     fmi2Boolean logging_on;
     size_t n_categories;
     char **categories;
-    pthread_mutex_t lock;  /* FMI allows any thread; one call at a time per instance */
-    const char *running;   /* the function running (set under the lock) */
-    const char *reentered; /* a function the logger called during `running`: refused, reported on leaving */
+    pthread_mutex_t lock;    /* FMI allows any thread; one call at a time per instance */
+    volatile int busy;       /* a call is running: set and cleared under the lock */
+    volatile ThreadId owner; /* the thread running it */
+    const char *running;     /* the function running (set under the lock) */
+    const char *reentered;   /* a function the logger called during `running`: refused, reported on leaving */
 } Instance;
 
 /* The header (magic, layout, runtime, GUID) comes first and is read before anything else: a state from another
@@ -233,21 +239,13 @@ static fmi2Status fail(Instance *inst, const char *function, const char *why) {
     return fmi2Error;
 }
 
-/* The instances this thread is inside of (a call whose logger callback runs now), innermost last.  A host's logger
-   that calls back into an instance whose call is running would wait forever on the instance's lock: such a call is
-   refused instead (fmi2Error), and reported once the running call leaves. */
-#define MAX_NESTED_CALLS 16
-static FRONT_THREAD_LOCAL Instance *inside[MAX_NESTED_CALLS];
-static FRONT_THREAD_LOCAL int n_inside;
-
-static int is_inside(const Instance *inst) {
-    for (int i = 0; i < n_inside; i++)
-        if (inside[i] == inst) return 1;
-    return 0;
-}
+/* A host's logger that calls back into an instance whose call is running (and logging) on the same thread would
+   wait forever on the instance's lock: such a call is refused instead (fmi2Error), and reported once the running
+   call leaves.  `owner` is read without the lock: another thread's id never equals ours, whatever it reads. */
+static int called_back(const Instance *inst) { return inst->busy && same_thread(inst->owner, this_thread()); }
 
 static void unlock(Instance *inst) {
-    if (n_inside > 0 && inside[n_inside - 1] == inst) n_inside--;
+    inst->busy = 0;
     inst->running = NULL;
     pthread_mutex_unlock(&inst->lock);
 }
@@ -257,13 +255,13 @@ static Instance *enter(fmi2Component c, Function f, fmi2Status *refused) {
     Instance *inst = c;
     *refused = fmi2Error;
     if (!inst || inst->magic != INSTANCE_MAGIC) return NULL; /* no logger to tell */
-    if (is_inside(inst)) { /* from the logger of this instance's running call: no logging here (it would recurse) */
+    if (called_back(inst)) { /* from the logger of this instance's running call: no logging (it would recurse) */
         if (!inst->reentered) inst->reentered = CALLS[f].name; /* this thread holds the lock: safe */
         return NULL;
     }
-    if (n_inside == MAX_NESTED_CALLS) return NULL; /* loggers calling other instances, nested that deep */
     pthread_mutex_lock(&inst->lock);
-    inside[n_inside++] = inst;
+    inst->owner = this_thread();
+    inst->busy = 1;
     inst->running = CALLS[f].name;
     char why[256];
     if (CALLS[f].unsupported) {
