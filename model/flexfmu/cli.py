@@ -428,6 +428,8 @@ def _add_model_options(parser: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from flexfmu.reframe.schemes import SCHEMES
+
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
 
@@ -501,7 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "global force at the model's default load point (paper_plate: midway between P5 and P8; "
                     "beam / .npz: the last node); outputs at the default output point (P1; the first node).")
     reframe.add_argument("model", metavar="MODEL", help="paper_plate | beam:<scene> | path to a .npz")
-    reframe.add_argument("--scheme", choices=("consistent", "exponential", "paper"), default="consistent",
+    reframe.add_argument("--scheme", choices=sorted(SCHEMES), default="consistent",
                          help="consistent (default, RK4), exponential (exact in the modes' linear part, no RK4 "
                               "limit) or the paper's printed scheme")
     reframe.add_argument("--t-end", type=float, default=1.0, metavar="T", help="end time, s (default 1)")

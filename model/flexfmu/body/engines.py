@@ -49,16 +49,19 @@ class FreeEngine:
         self.y = dyn.initial_state(np.array([c.v0_x, c.v0_y, c.v0_z]), np.array([c.omega0_1, c.omega0_2, c.omega0_3]))
         self.t = 0.0
         self.cap = c.max_internal_steps
-        self.rk4 = c.scheme == "consistent"
-        self.limit = RK4_STABILITY_LIMIT / dyn.omega_max if (self.rk4 and dyn.omega_max > 0) else math.inf
+        self.scheme = c.scheme
+        #: internal steps by the RK4 stability limit (automatic: 90 % of it), else by the rotation per step
+        self.stability_limited = dyn.scheme_class.stability_limited
+        self.limit = (RK4_STABILITY_LIMIT / dyn.omega_max if (self.stability_limited and dyn.omega_max > 0)
+                      else math.inf)
         shortest = MIN_COMMUNICATION_STEP / self.cap
         if c.internal_step > self.limit:
             raise ParameterError("internal_step", f"{c.internal_step:g} s exceeds the RK4 stability limit 2.8 / "
                                  f"omega_max = {self.limit:.6g} s", f"0 (automatic) or {shortest:.3g} .. "
                                  f"{self.limit:.6g} s, or scheme exponential")
         self.internal_step = c.internal_step
-        self.max_step = c.internal_step if c.internal_step > 0 else (AUTO_STEP_FRACTION * self.limit if self.rk4
-                                                                    else math.inf)
+        self.max_step = c.internal_step if c.internal_step > 0 else (AUTO_STEP_FRACTION * self.limit
+                                                                    if self.stability_limited else math.inf)
         if self.max_step < shortest:
             raise ParameterError("scheme" if c.internal_step == 0 else "internal_step",
                                  f"internal steps of {self.max_step:.3g} s need more than max_internal_steps = "
@@ -77,7 +80,7 @@ class FreeEngine:
 
     def split(self, h: float):
         """(internal steps, reason) for a communication step h (s); StepRejected / ParameterError beyond the cap."""
-        if not self.rk4 and self.internal_step == 0:
+        if not self.stability_limited and self.internal_step == 0:
             out = self.dyn.outputs(self.y, self.SV, max_elastic=False)
             w, a = float(np.linalg.norm(out[_OMEGA])), float(np.linalg.norm(out[_ALPHA]))
             if not (math.isfinite(w) and math.isfinite(a)):
@@ -91,14 +94,14 @@ class FreeEngine:
                     lo, hi = (mid, hi) if self._rotation_count(mid, w, a) <= self.cap else (lo, mid)
                 raise too_many_steps(self.cap, ratio, h, lo, self.culprit() or "state")
             n = max(1, math.ceil(ratio * (1 - 1e-12)))
-            return n, (f"scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = {self.theta_max:.3g} "
-                       f"rad (|omega| = {w:.4g} rad/s, |alpha| = {a:.4g} rad/s^2, held)")
+            return n, (f"scheme {self.scheme}: rotation per internal step <= 0.5 tolerance^(1/4) = "
+                       f"{self.theta_max:.3g} rad (|omega| = {w:.4g} rad/s, |alpha| = {a:.4g} rad/s^2, held)")
         ratio = h / self.max_step * (1 - 1e-12)
         if not ratio <= self.cap:
             raise too_many_steps(self.cap, ratio, h, self.cap * self.max_step, "internal_step")
         n = max(1, math.ceil(ratio))
         why = (f"internal_step = {self.internal_step:g} s" if self.internal_step > 0 else
-               f"scheme consistent (RK4): 90 % of the stability limit {self.limit:.4g} s")
+               f"scheme {self.scheme} (RK4): 90 % of the stability limit {self.limit:.4g} s")
         return n, why
 
     def _rotation_count(self, h: float, w: float, a: float) -> float:

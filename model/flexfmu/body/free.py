@@ -1,5 +1,5 @@
-"""A free body: the reframe integrator's consistent and exponential schemes (flexfmu.reframe.integrator) on the
-reduced model alone, loaded and observed at named interfaces.
+"""A free body: the reframe integrator's kernel schemes (consistent, exponential: flexfmu.reframe.schemes, those with
+``for_bodies``) on the reduced model alone, loaded and observed at named interfaces.
 
 Reduction (:func:`free_invariants`, at build time): the kernels' inertia invariants of the kinetic energy
 (flexfmu.reframe.kernel_data.inertia_invariants: m, J0, A_j, B_j + B_j^T, C_jk, D_j from M, the node positions
@@ -34,9 +34,9 @@ from flexfmu.linalg.modal_basis import N_RIGID, ModalBasis
 from flexfmu.reframe.kernel_data import inertia_invariants, max_displacement_blocks
 from flexfmu.reframe.layout import output_layout, param_layout
 from flexfmu.reframe.modeldata import _ModelData
+from flexfmu.reframe.schemes import scheme_class
 
-SCHEMES = ("exponential", "consistent")
-_EX_MEMO = 8                       # exponential coefficients kept per step size
+_EX_MEMO = 8                       # kernel coefficients kept per step size
 
 
 def free_invariants(structure, basis: ModalBasis) -> dict:
@@ -52,7 +52,8 @@ def free_invariants(structure, basis: ModalBasis) -> dict:
 
 class FreeDynamics:
     """The reframe kernels on a free body's reduced arrays ``inv`` (:func:`free_invariants`), its flexible
-    eigenvalues omega^2 (nf,), damping ratio, scheme ("exponential" | "consistent") and interfaces: ``rows`` (6, nf)
+    eigenvalues omega^2 (nf,), damping ratio, scheme (a name in flexfmu.reframe.schemes.SCHEMES whose class has
+    ``for_bodies``: "exponential", "consistent") and interfaces: ``rows`` (6, nf)
     maps D Phi_patch, ``points`` (n_if, 3) body-frame coordinates, ``moments`` (n_if,) bools.
 
     State: y of flexfmu.reframe.layout.STATE (frame point = centre of mass, global; rotation body -> global; eta).
@@ -62,11 +63,13 @@ class FreeDynamics:
     def __init__(self, inv: dict, eigenvalues, damping_ratio: float, scheme: str, rows, points, moments,
                  deformed_load_arm: bool = True, follower: bool = False):
         from flexfmu.reframe import kernels
-        from flexfmu.reframe.schemes import exponential_coefficients
 
         self._kern = kernels
-        self._expo = exponential_coefficients
+        #: the scheme's class (flexfmu.reframe.schemes.Scheme): its kernel coefficients and substeps
+        self.scheme_class = cls = scheme_class(scheme, "for_bodies")
         self.scheme = scheme
+        self._expo = cls.kernel_coefficients              # None: classical RK4
+        self._substeps = cls.substeps
         self.deformed = bool(deformed_load_arm)
         kF = np.asarray(eigenvalues, dtype=float)
         nf = self.nf = kF.size
@@ -128,8 +131,11 @@ class FreeDynamics:
         return EX
 
     def steps(self, y: np.ndarray, t: float, dt: float, n: int, SV: np.ndarray):
-        """n steps of dt: (y, t, steps done, status) as flexfmu.reframe.kernels.reframe_steps (0 ok, 2 not finite)."""
-        if self.scheme == "consistent":
+        """n steps of dt: (y, t, kernel steps done, status) as flexfmu.reframe.kernels.reframe_steps (0 ok, 2 not
+        finite); each step is the scheme's substeps kernel steps."""
+        if self._substeps != 1:
+            dt, n = dt / self._substeps, n * self._substeps
+        if self._expo is None:
             return self._kern.consistent_steps(self.P, self.LP, self.nf, self.deformed, SV, True, t, dt, n, y)
         return self._kern.reframe_steps(self.P, self.LP, np.zeros(0), self._coefficients(dt), self.nf, self.deformed,
                                         SV, True, t, dt, n, y)

@@ -32,12 +32,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from flexfmu.body.engines import ClampedEngine, FreeEngine
-from flexfmu.body.free import SCHEMES
 from flexfmu.core.rotation import rotation_matrix
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, check_max_internal_steps, finite_input, require_real,
                                  require_str, shown)
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.reframe.layout import output_layout
+from flexfmu.reframe.schemes import scheme_class, scheme_names
 
 AXES = ("x", "y", "z")
 TOLERANCE_RANGE = (1e-8, 1.0)
@@ -186,9 +186,8 @@ def _check_config(c, body) -> float:
     check_max_internal_steps(c.max_internal_steps)
     if not isinstance(c, FlexBodyConfig):
         return zeta
-    require_str(c.scheme, "scheme", " | ".join(SCHEMES))
-    if c.scheme not in SCHEMES:
-        raise ParameterError("scheme", f"got {shown(c.scheme)}", " | ".join(SCHEMES))
+    require_str(c.scheme, "scheme", " | ".join(scheme_names("for_bodies")))
+    scheme_class(c.scheme, "for_bodies")
     lo, hi = TOLERANCE_RANGE
     require_real(c.tolerance, "tolerance", f"{lo:g} <= tolerance < {hi:g}", lo, hi, hi_open=True)
     for name in _INITIAL:

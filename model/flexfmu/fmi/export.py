@@ -8,17 +8,13 @@ reduced.  Everything else (the runtime, the FMI behaviour) is the same as the bu
 """
 from __future__ import annotations
 
-import html
-import keyword
-import re
 import tempfile
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from flexfmu.errors import ParameterError
-
-#: the model's file name inside the FMU's resources/
-BODY_FILE = "flexfmu_body.npz"
+# what both runtimes' FMUs of a body share; re-exported: generated slaves import exported_spec from here
+from flexfmu.fmi.body_fmu import (BODY_FILE, ExportedSpec, check_model_identifier, check_target,  # noqa: F401
+                                  default_experiment, documentation_html, exported_spec)
 
 SLAVE_TEMPLATE = '''"""{name}.fmu: {description}.
 
@@ -43,110 +39,9 @@ class {name}(Fmi2Slave):
 '''
 
 
-@dataclass(frozen=True)
-class ExportedSpec:
-    """What flexfmu.fmi.plumbing asks of an FMU (as flexfmu.fmi.registry.FmuSpec), for one FlexBody."""
-
-    name: str
-    description: str
-    body: object                      # flexfmu.body.FlexBody
-    experiment: dict = field(default_factory=dict)
-
-    @property
-    def _simulator_module(self):
-        from flexfmu.body import simulator
-        return simulator
-
-    @property
-    def config_class(self):
-        return self._simulator_module.config_class(self.body)
-
-    @property
-    def input_names(self) -> tuple:
-        return tuple(self._simulator_module.input_names(self.body))
-
-    @property
-    def output_names(self) -> tuple:
-        return tuple(self._simulator_module.output_names(self.body))
-
-    @property
-    def variable_info(self) -> dict:
-        return self._simulator_module.variable_info(self.body)
-
-    @property
-    def deferred_outputs(self) -> tuple:
-        return tuple(self._simulator_module.deferred_outputs(self.body))
-
-    def make_simulator(self, config):
-        return self._simulator_module.FlexBodySimulator(self.body, config)
-
-
-def exported_spec(resources: str, name: str, description: str) -> ExportedSpec:
-    """The spec of an exported FMU whose resources folder is ``resources``."""
-    from flexfmu.body.model import FlexBody
-
-    return ExportedSpec(name, description, FlexBody.load(Path(resources) / BODY_FILE))
-
-
-def check_model_identifier(name: str) -> str:
-    """``name`` if it can be an FMU's modelIdentifier (a C and Python identifier), else ParameterError."""
-    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]{0,63}", name or "") or keyword.iskeyword(name):
-        raise ParameterError("output", f"model name {name!r} (the .fmu file's stem)",
-                             "a letter, then letters, digits or _ (at most 64), e.g. Bracket.fmu")
-    return name
-
-
-def check_target(target) -> str:
-    """The model identifier of the FMU file ``target`` (``NAME.fmu``), or ParameterError."""
-    target = Path(target)
-    if target.suffix != ".fmu":
-        raise ParameterError("output", f"{str(target)!r}", "a file name ending in .fmu, e.g. Bracket.fmu")
-    return check_model_identifier(target.stem)
-
-
-def default_experiment(body) -> dict:
-    """Start 0, stop 1 s, and a communication step of 1/20 of the first natural period (at most 1 ms), rounded
-    down to 1, 2 or 5 x 10^k s.  The simulator splits a step internally as its modes need, so the step only
-    has to sample the motion a master wants to see."""
-    import math
-
-    f_1 = float(body.natural_frequencies_hz[0]) if len(body.natural_frequencies_hz) else 0.0
-    step = 1e-3 if not f_1 > 0 else min(1e-3, 0.05 / f_1)
-    exponent = math.floor(math.log10(step))
-    mantissa = max(m for m in (1, 2, 5) if m * 10.0**exponent <= step * (1 + 1e-12))
-    return {"startTime": "0", "stopTime": "1", "stepSize": f"{mantissa}e{exponent}"}
-
-
-def documentation_html(name: str, body) -> str:
-    """documentation/index.html: the model, its source, its reduction, the variables."""
-    from flexfmu.body import simulator
-
-    info = simulator.variable_info(body)
-    rows = "\n".join(f"<tr><td><code>{html.escape(v)}</code></td><td>{html.escape(info[v][0])}</td>"
-                     f"<td>{html.escape(info[v][1])}</td></tr>" for v in info)
-    summary = "\n".join(f"<li>{html.escape(line)}</li>" for line in body.describe())
-    return f"""<!DOCTYPE html>
-<html><head><meta charset="utf-8"><title>{html.escape(name)}</title></head>
-<body>
-<h1>{html.escape(name)}</h1>
-<p>A flexible body exported by flexfmu (FMI 2.0 co-simulation). The reduced model is
-<code>resources/{BODY_FILE}</code>; the FMU needs no other file.</p>
-<h2>Model, source and reduction</h2>
-<ul>
-{summary}
-</ul>
-<h2>Variables</h2>
-<table border="1" cellspacing="0" cellpadding="3">
-<tr><th>name</th><th>unit</th><th>description</th></tr>
-{rows}
-</table>
-</body></html>
-"""
-
-
 def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python") -> Path:
     """Build the FMU of ``body`` (flexfmu.body.FlexBody) at ``target`` (``NAME.fmu``; NAME becomes the
-    modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native; clamped bodies)."""
+    modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native, which does not import this module)."""
     if runtime == "native":
         from flexfmu.fmi.native import export_native
         return export_native(body, target, description=description)

@@ -213,7 +213,7 @@ def _max_internal_steps() -> RuntimeParameter:
 @dataclass
 class NativeSource:
     """Everything a native FMU is made of: its name and description, the FMU spec its modelDescription comes from
-    (flexfmu.fmi.registry.FmuSpec or flexfmu.fmi.export.ExportedSpec), the parameter values it is built with,
+    (flexfmu.fmi.registry.FmuSpec or flexfmu.fmi.body_fmu.ExportedSpec), the parameter values it is built with,
     which of them stay settable (``runtime``), the kind's model (an flexfmu.native.lti.LtiModel), the
     DefaultExperiment, the messages logged at initialisation, the divergence limit, the rebuild command, and the
     documentation page."""
@@ -611,7 +611,7 @@ def registry_source(name: str = "FFRBeam", settings: dict | None = None, *, mode
     """The native source of the registry FMU ``name`` with the parameters ``settings`` {name: value or text} (the
     rest at their defaults); ParameterError for an FMU without a native form or a configuration it cannot have."""
     from flexfmu.fmi import registry
-    from flexfmu.fmi.export import check_model_identifier
+    from flexfmu.fmi.body_fmu import check_model_identifier
 
     if name not in registry.BY_NAME:
         raise ParameterError("fmu", f"got {name!r}", " | ".join(registry.BY_NAME))
@@ -665,11 +665,12 @@ def _reframe_source(spec, values: dict, defaults: dict, model_name: str) -> Nati
     points, scheme) fixed at build; damping_ratio and tolerance too when n_flexible_modes = -1 (the modes chosen
     depend on them)."""
     from flexfmu.reframe import simulator as rs
+    from flexfmu.reframe.schemes import scheme_class
 
     config = spec.config_class(**values)
-    if config.scheme != "exponential":
-        raise ParameterError("scheme", f"native: got {config.scheme!r}; the native reframe kind steps the exponential "
-                             "scheme only", "exponential (--runtime python for the other schemes)")
+    # ReframeBody's model file has no scheme entry (reframe.body is an exported free body's): C steps code 0
+    scheme_class(config.scheme, lambda s: s.native_code == 0, context="native: ",
+                 hint=", the scheme the native ReframeBody steps (--runtime python for the others)")
     sim = rs.ReframeBodySimulator(config)
     integ = sim.integrator
     nf = integ.data.nf
@@ -741,7 +742,7 @@ def body_source(body, name: str, description: str | None = None, *, scheme: str 
     """The native source of an exported body (flexfmu.body.FlexBody): a clamped one as the LTI kind, a free one as
     the reframe kind (:func:`_free_body_source`, its ``scheme`` fixed at build)."""
     from flexfmu.body.simulator import FlexBodySimulator, config_class
-    from flexfmu.fmi.export import ExportedSpec, check_model_identifier, default_experiment, documentation_html
+    from flexfmu.fmi.body_fmu import ExportedSpec, check_model_identifier, default_experiment, documentation_html
     from flexfmu.native.lti import LtiModel
 
     check_model_identifier(name)
@@ -766,18 +767,17 @@ def body_source(body, name: str, description: str | None = None, *, scheme: str 
         info={"source": body.summary(), "fit_error": lti.fit_error})
 
 
-
 def _free_body_source(body, name: str, description: str | None, scheme: str) -> NativeSource:
     """An exported free body as the reframe kind (csrc/native_reframe.c, its free-body entries): the arrays of
     its FlexBodySimulator's FreeDynamics written once, one load and one output point per interface, the outputs
     by the simulator's own columns plus the global frame vectors and the frequencies; ``scheme`` fixed at build,
     the other parameters settable."""
-    from flexfmu.body.free import SCHEMES
     from flexfmu.body.simulator import TOLERANCE_RANGE, FlexBodySimulator, _INITIAL, config_class
-    from flexfmu.fmi.export import ExportedSpec, default_experiment, documentation_html
+    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html
+    from flexfmu.reframe.schemes import scheme_class
 
-    if scheme not in SCHEMES:
-        raise ParameterError("scheme", f"got {scheme!r}", " | ".join(SCHEMES))
+    code = scheme_class(scheme, lambda s: s.for_bodies and s.native_code is not None, context="native: ",
+                        hint=", the free-body schemes with a native form").native_code
     description = description or body.summary()
     spec = ExportedSpec(name, description, body)
     config = config_class(body)(scheme=scheme)
@@ -819,7 +819,7 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
             "reframe.role": np.array([params.index(n) if n in params else -1 for n in _REFRAME_ROLES], np.int32),
             "reframe.fixed": np.array([float(getattr(config, n)) if hasattr(config, n) else 0.0
                                        for n in _REFRAME_ROLES], float),
-            "reframe.body": np.array([1, int(scheme == "consistent"), dyn.n_if, 0], np.int32),
+            "reframe.body": np.array([1, code, dyn.n_if, 0], np.int32),
             "reframe.loads": np.array(loads, np.int32).reshape(dyn.n_if, 2),
             "reframe.limit": np.array([limit], float),
             "reframe.extra": np.asarray(sim._f, float).reshape(-1),
@@ -837,6 +837,6 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
 def export_native(body, target, *, description: str | None = None, scheme: str = "exponential") -> Path:
     """``flexfmu export ... --runtime native``: the native FMU of a clamped or free body at ``target`` (NAME.fmu);
     ``scheme``: a free body's, fixed at build."""
-    from flexfmu.fmi.export import check_target
+    from flexfmu.fmi.body_fmu import check_target
     name = check_target(target)
     return build_native_fmu(body_source(body, name, description, scheme=scheme), target)

@@ -151,7 +151,8 @@ class ReframeIntegrator:
                         scheme); the consistent and exponential schemes take any structure with the
                         default points (a straight rod: colinear nodes).
     scheme:             "consistent" (default), "exponential" (the consistent equations, exact in
-                        the flexible modes' linear part: no RK4 stability limit) or "paper".
+                        the flexible modes' linear part: no RK4 stability limit), "paper", or another
+                        name in SCHEMES (flexfmu.reframe.schemes.register_scheme).
     deformed_load_arm:  True: the moment of a load on the rigid-body motion uses the deformed position
                         of its point (adds u_F x f).  False: the undeformed lever arm (paper's
                         linear model).
@@ -190,8 +191,8 @@ class ReframeIntegrator:
         if G is None:
             return
         if not self.stepper.geometric_stiffness:
-            raise ParameterError("geometric_stiffness", f"not supported by scheme {self.scheme!r}",
-                                 'None, or scheme "consistent" / "exponential"')
+            raise ParameterError("geometric_stiffness", f"not supported by scheme {self.scheme!r}", "None, or scheme "
+                                 + " / ".join(f'"{x}"' for x in _schemes.scheme_names("geometric_stiffness")))
         try:
             Ga = np.array(G, dtype=float)
         except (TypeError, ValueError):
@@ -207,10 +208,10 @@ class ReframeIntegrator:
         self._Gk = np.ascontiguousarray(Ga.reshape(-1))
 
     def _exponential(self, dt: float) -> np.ndarray:
-        """Flat exponential-scheme coefficients for dt (cached: the FMU steps with one dt)."""
+        """The scheme's kernel coefficients for dt, flat (exponential: ETD-RK4; cached: the FMU steps with one dt)."""
         EX = self._ex_cache.get(dt)
         if EX is None:
-            EX = np.ascontiguousarray(_schemes.exponential_coefficients(self._kF, self._cF, dt).reshape(-1))
+            EX = np.ascontiguousarray(self.stepper.kernel_coefficients(self._kF, self._cF, dt).reshape(-1))
             if len(self._ex_cache) >= 8:
                 self._ex_cache.clear()
             self._ex_cache[dt] = EX

@@ -1,6 +1,9 @@
-"""The three schemes of the reframe integrator (:mod:`flexfmu.reframe.integrator`, whose docstring
-describes them) behind one interface: :class:`ReframeIntegrator` picks one object from the scheme's
-name once, in its constructor, and calls it for everything that depends on the scheme.
+"""The schemes of the reframe integrator (:mod:`flexfmu.reframe.integrator`, whose docstring describes the
+three built-in ones) behind one interface, and their one registry, :data:`SCHEMES`: :class:`ReframeIntegrator`
+picks one object from the scheme's name once, in its constructor, and calls it for everything that depends on
+the scheme; exported free bodies (flexfmu.body.free), the simulators' parameter checks, the CLI and the native
+FMUs (flexfmu.fmi.native) read the class attributes of :class:`Scheme` instead of comparing names.  A new scheme
+is a :class:`Scheme` subclass passed to :func:`register_scheme`.
 
 The consistent and exponential schemes step with the compiled kernels (flexfmu.reframe.kernels) on the
 integrator's packed model data and differ only in the per-dt coefficients they pass (none: classical
@@ -10,9 +13,12 @@ numpy on the full modal matrices and keeps its own data here.
 from __future__ import annotations
 
 import math
+import re
+from types import MappingProxyType
 
 import numpy as np
 
+from flexfmu.core.checks import shown
 from flexfmu.errors import FlexfmuError, ParameterError
 from flexfmu.linalg.modal_basis import N_RIGID
 from flexfmu.core.rotation import (
@@ -27,7 +33,8 @@ from flexfmu.core.vec3 import rodrigues as _rodrigues
 from flexfmu.core.vec3 import skew as _skew
 from flexfmu.reframe.results import ReframeState
 
-__all__ = ["Scheme", "ConsistentScheme", "ExponentialScheme", "PaperScheme", "make", "exponential_coefficients",
+__all__ = ["Scheme", "ConsistentScheme", "ExponentialScheme", "PaperScheme", "SCHEMES", "register_scheme",
+           "unregister_scheme", "scheme_names", "scheme_class", "make", "exponential_coefficients",
            "exponential_coefficients_scipy"]
 
 
@@ -98,16 +105,33 @@ def exponential_coefficients_scipy(stiffness, damping, dt: float) -> np.ndarray:
 class Scheme:
     """One scheme of a :class:`~flexfmu.reframe.integrator.ReframeIntegrator` (``integ``).
 
-    stability_limited:    the step is limited by RK4 stability (dt * omega_max <= RK4_STABILITY_LIMIT).
+    What its users read, as class attributes (so without an integrator):
+
+    stability_limited:    the step is limited by RK4 stability (dt * omega_max <= RK4_STABILITY_LIMIT): the
+                          simulators' automatic internal step is 90 % of that limit; False: no limit, the
+                          automatic internal step is chosen by the rotation per step (accuracy).
+    kernel_coefficients:  None: the kernels step classical RK4; else a function (stiffness k_j, damping c_j, dt)
+                          -> (nf, 6, 2, 2) per-mode coefficients the kernels take (the exponential scheme's ETD-RK4,
+                          flexfmu.reframe.kernels).
+    substeps:             kernel steps per step: a step of dt is ``substeps`` kernel steps of dt / substeps (the
+                          stability limit is still checked on dt, which is conservative).
     geometric_stiffness:  the scheme takes a geometric-stiffness hook.
     kernel_outputs:       the outputs of a state come from the output kernel (ReframeIntegrator.output_vector);
                           else from :meth:`outputs`.
+    for_bodies:           exported free bodies (flexfmu.body.free.FreeDynamics) can step with it: it is the kernels
+                          with kernel_coefficients and substeps alone (no :meth:`advance` of its own).
+    native_code:          the scheme's code in the native reframe kind (reframe.body[1] of csrc/native_reframe.c:
+                          0 exponential, 1 consistent; C computes its coefficients itself), None: no native form.
     """
 
     name = ""
     stability_limited = True
+    kernel_coefficients = None
+    substeps = 1
     geometric_stiffness = True
     kernel_outputs = True
+    for_bodies = False
+    native_code: int | None = None
 
     def __init__(self, integ):
         self.integ = integ
@@ -121,26 +145,31 @@ class Scheme:
         return None
 
     def coefficients(self, dt: float):
-        """Per-dt coefficients for the step kernel (None: classical RK4)."""
-        return None
+        """Per-dt coefficients for the step kernel, flat (None: classical RK4), cached on the integrator."""
+        return None if self.kernel_coefficients is None else self.integ._exponential(dt)
 
     def advance(self, state: ReframeState, dt: float, n: int, loads, coefficients_dt: float | None = None
                 ) -> ReframeState:
         """n steps of dt from state (dt and n checked, loads prepared); the per-dt coefficients of
         coefficients_dt (default dt; within STEP_RTOL of it)."""
+        k = self.substeps
+        if k != 1:
+            dt, n, coefficients_dt = dt / k, n * k, (dt if coefficients_dt is None else coefficients_dt) / k
         return self.integ._consistent_steps(state, dt, n, loads, coefficients_dt)
 
 
 class ConsistentScheme(Scheme):
     name = "consistent"
+    for_bodies = True
+    native_code = 1
 
 
 class ExponentialScheme(Scheme):
     name = "exponential"
     stability_limited = False
-
-    def coefficients(self, dt: float):
-        return self.integ._exponential(dt)
+    kernel_coefficients = staticmethod(exponential_coefficients)
+    for_bodies = True
+    native_code = 0
 
 
 class PaperScheme(Scheme):
@@ -372,15 +401,64 @@ class PaperScheme(Scheme):
 
 
 
-_SCHEMES = {cls.name: cls for cls in (ConsistentScheme, PaperScheme, ExponentialScheme)}
-#: the scheme names, in the order the parameter docs list them
-SCHEMES = tuple(_SCHEMES)
+_REGISTRY: dict[str, type[Scheme]] = {}
+#: name -> class of every registered scheme, in registration order (the order messages and the studies list
+#: them); a read-only view that register_scheme and unregister_scheme keep current
+SCHEMES = MappingProxyType(_REGISTRY)
+
+
+def register_scheme(cls: type[Scheme]) -> type[Scheme]:
+    """Add the scheme class ``cls`` to :data:`SCHEMES` under ``cls.name`` (a lower-case identifier); returns it, so
+    it can decorate the class.  Refused (ValueError): a name already registered, or a native_code another scheme
+    has (a subclass inherits its parent's, which the native runtime would then step in its place)."""
+    if not (isinstance(cls, type) and issubclass(cls, Scheme)):
+        raise TypeError(f"register_scheme: {cls!r} is not a subclass of flexfmu.reframe.schemes.Scheme")
+    name = cls.name
+    if not (isinstance(name, str) and re.fullmatch(r"[a-z][a-z0-9_]*", name)):
+        raise ValueError(f"register_scheme: {cls.__name__}.name = {name!r}; a lower-case identifier is needed")
+    if name in _REGISTRY:
+        raise ValueError(f"register_scheme: a scheme {name!r} is registered already ({_REGISTRY[name].__name__})")
+    if cls.native_code is not None:
+        for other in _REGISTRY.values():
+            if other.native_code == cls.native_code:
+                raise ValueError(f"register_scheme: {name!r} has native_code {cls.native_code}, scheme "
+                                 f"{other.name!r}'s; set native_code = None unless the native runtime steps it")
+    _REGISTRY[name] = cls
+    return cls
+
+
+def unregister_scheme(name: str) -> type[Scheme]:
+    """Remove the scheme ``name`` registered by :func:`register_scheme` (not a built-in one); returns its class."""
+    if name in _BUILT_IN:
+        raise ValueError(f"unregister_scheme: {name!r} is a built-in scheme")
+    return _REGISTRY.pop(name)
+
+
+def _passes(cls, where) -> bool:
+    return where is None or (bool(getattr(cls, where)) if isinstance(where, str) else where(cls))
+
+
+def scheme_names(where=None) -> tuple[str, ...]:
+    """The names in :data:`SCHEMES` (registration order) whose class passes ``where``: None (all), the name of a
+    class attribute that must be true (e.g. "for_bodies"), or a predicate on the class."""
+    return tuple(name for name, cls in _REGISTRY.items() if _passes(cls, where))
+
+
+def scheme_class(name, where=None, *, context: str = "", hint: str = "") -> type[Scheme]:
+    """The class of the registered scheme ``name`` if it passes ``where`` (as in :func:`scheme_names`); else
+    ParameterError naming ``scheme``, with ``context`` before the problem and, as allowed, the names that pass
+    followed by ``hint``."""
+    cls = _REGISTRY.get(name) if isinstance(name, str) else None
+    if cls is None or not _passes(cls, where):
+        raise ParameterError("scheme", f"{context}got {shown(name)}", " | ".join(scheme_names(where)) + hint)
+    return cls
 
 
 def make(name: str, integ) -> Scheme:
     """The scheme object of a name in SCHEMES for the integrator integ."""
-    try:
-        cls = _SCHEMES[name]
-    except (KeyError, TypeError):
-        raise ParameterError("scheme", repr(name), " | ".join(f'"{x}"' for x in SCHEMES)) from None
-    return cls(integ)
+    return scheme_class(name)(integ)
+
+
+for _cls in (ConsistentScheme, PaperScheme, ExponentialScheme):
+    register_scheme(_cls)
+_BUILT_IN = frozenset(_REGISTRY)

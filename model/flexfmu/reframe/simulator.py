@@ -498,7 +498,7 @@ class ReframeBodySimulator:
         DEFERRED_OUTPUTS out of the computation (their places hold -1; scheme "paper": computed anyway)."""
         integ = self.integrator
         try:
-            if integ.scheme != "paper":
+            if integ.stepper.kernel_outputs:
                 out = integ.output_vector(self.state, self._loads, self._points, max_elastic=include_deferred)
                 if self._rates_needed and (self._last_rates is None or self._last_rates[0] is not self.state):
                     self._remember_rates(out)        # the inputs are the state's own: see _rates
