@@ -222,7 +222,8 @@ def test_rigid_modes_mass_orthonormal_and_strain_free(which, small_plate):
     # eigenvalue dominates), plus this product's own rounding gamma_{n + r_M} |Phi|^T |M| |Phi|
     err = np.abs(Phi.T @ (s.M @ Phi) - np.eye(6))
     bound = r.e_orth + gamma(r.n + r.r_M) * (absPhi.T @ (r.absM @ absPhi))
-    print(f"\n{which}: max |Phi^T M Phi - I| = {err.max():.2e}, bound {bound.max():.2e} (ratio {np.max(err / bound):.2g})")
+    print(f"\n{which}: max |Phi^T M Phi - I| = {err.max():.2e}, bound {bound.max():.2e} "
+          f"(ratio {np.max(err / bound):.2g})")
     assert np.all(err <= bound)
     # strain free: K Phi is K's own residual on the exact rigid fields about c, K (B_ex A) (computed exactly: the
     # structure's assembly rounding, not the modes'), plus K (Phi - B_ex A) <= gamma_7 |K| |B| |A| and this product's
@@ -231,7 +232,8 @@ def test_rigid_modes_mass_orthonormal_and_strain_free(which, small_plate):
     ref = _exact_rigid_residual(s.K, s.nodes, s.dofs_per_node, r.c, r.A)
     bound = absK @ r.span + gamma(_row_nnz(s.K)) * (absK @ absPhi) + U * np.abs(ref)
     err = np.abs(s.K @ Phi - ref)
-    print(f"max |K Phi - K B_ex A| = {err.max():.2e}, bound {bound.max():.2e} (ratio {np.max(err / np.maximum(bound, 1e-300)):.2g})")
+    print(f"max |K Phi - K B_ex A| = {err.max():.2e}, bound {bound.max():.2e} "
+          f"(ratio {np.max(err / np.maximum(bound, 1e-300)):.2g})")
     assert np.all(err <= bound)
 
 
@@ -286,8 +288,9 @@ def test_mass_properties_of_point_masses_match_formula():
     dc = 2 * gamma(2 * n_nodes + 5) * moment
     assert np.all(np.abs(mp.center_of_mass - c) <= dc)
     # inertia about the computed COMs: the terms m (delta_kl |r|^2 - r_k r_l) + J_rot, |.| <= 2 (m |r|^2 + |J_rot|)
-    # summed = 2 T; the code's x - c (1 rounding), B^T M B (inner products over all n_dof DOFs, rounded products) and the
-    # symmetrisation: gamma_{n_dof + 8} 2 T; here |r|^2, the products and the n_nodes-term sum: gamma_{n_nodes + 8} 2 T.
+    # summed = 2 T; the code's x - c (1 rounding), B^T M B (inner products over all n_dof DOFs, rounded products) and
+    # the symmetrisation: gamma_{n_dof + 8} 2 T; here |r|^2, the products and the n_nodes-term sum:
+    # gamma_{n_nodes + 8} 2 T.
     # The two COMs differ from the exact one by <= dc each: the inertia about a point d off the COM is J_com +
     # m_tot (|d|^2 I - d d^T), <= 2 m_tot |d|^2 per entry
     T = float(m @ np.einsum("ij,ij->i", r, r)) + np.abs(J_rot).sum()
@@ -341,7 +344,8 @@ def test_basis_orthonormal_and_stiffness_diagonal(which, request):
     np.testing.assert_allclose(np.diag(Kq)[6:], mb.stiffness[6:], rtol=0, atol=1e-8 * scale)
     assert np.all(mb.stiffness[:6] == 0.0)
     # flexible modes are M-orthogonal to the rigid ones: the candidates V_0 are projected twice, V_{k+1} =
-    # fl(V_k - Phi y^_k), y^_k = fl(Phi^T fl(M V_k)) within rho_k = gamma_{n + r_M} |Phi|^T |M| |V_k| of y_k = Phi^T M V_k;
+    # fl(V_k - Phi y^_k), y^_k = fl(Phi^T fl(M V_k)) within rho_k = gamma_{n + r_M} |Phi|^T |M| |V_k| of
+    # y_k = Phi^T M V_k;
     # the subtraction and Phi y^ err by delta_k <= gamma_6 |Phi| |y^_k| + u |V_{k+1}| (1 + u), so y_{k+1} = (y_k - y^_k)
     # - E y^_k + Phi^T M delta_k with ||E||_2 <= e_orth (_RigidRounding); then Psi_F = fl(V_2 Q) (gamma_nf |V_2| |Q|)
     # and this product's own rounding gamma_{n + r_M} |Phi|^T |M| |Psi_F|
@@ -357,7 +361,8 @@ def test_basis_orthonormal_and_stiffness_diagonal(which, request):
     bound = (y_bound @ np.abs(Q) + absPhi.T @ (rr.absM @ (gamma(n) * (np.abs(V) @ np.abs(Q))))
              + gamma(rr.n + rr.r_M) * (absPhi.T @ (rr.absM @ np.abs(mb.flexible))))
     err = np.abs(Phi.T @ (s.M @ mb.flexible))
-    print(f"\n{which}: max |Phi_R^T M Phi_F| = {err.max():.2e}, bound {bound.max():.2e} (ratio {np.max(err / bound):.2g})")
+    print(f"\n{which}: max |Phi_R^T M Phi_F| = {err.max():.2e}, bound {bound.max():.2e} "
+          f"(ratio {np.max(err / bound):.2g})")
     assert np.all(err <= bound)
     # ... and are eigenvectors
     resid = s.K @ mb.flexible - (s.M @ mb.flexible) * mb.stiffness[6:]
