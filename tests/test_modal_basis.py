@@ -106,19 +106,31 @@ class _RigidRounding:
     e_orth = e_sym + that bounds ||Phi^T M Phi - I||_2, Phi^T M Phi in exact arithmetic on the computed Phi.
 
     The exact rigid fields B_ex about c differ from B by the rounding of x - c (the cross products with unit vectors
-    are exact): |B - B_ex| <= u |B| (1 + u), so Phi - B_ex A <= gamma_7 |B| |A| (``span``)."""
+    are exact): |B - B_ex| <= u |B| (1 + u), so Phi - B_ex A <= gamma_7 |B| |A| (``span``).
 
-    def __init__(self, structure):
+    ``basis``: a ModalBasis, whose centre of mass and A (rigid_transform) are taken as they are; without it they are
+    computed again (the code's own calls; rigid_body_modes' Phi, asserted by the callers to be the same bits).  G is
+    computed again here for its eigenvalues: the code's G is within ||G - G_e|| of the exact one as this one is, so
+    its eigenvalues are within 2 ||G - G_e|| of these (Weyl), and the eigensolvers' eta ||G|| each."""
+
+    def __init__(self, structure, basis=None):
         s = validate_structure(structure)
         self.M, self.absM, self.n, self.r_M = s.M, abs(s.M), s.n_dof, _row_nnz(s.M)
-        _, self.c, self.B, G = mbm._rigid_parts(s)
-        self.Phi, self.A = mbm._rigid_orthonormal(s)[:2]
+        if basis is None:
+            _, self.c, self.B, G = mbm._rigid_parts(s)
+            self.Phi, self.A = mbm._rigid_orthonormal(s)[:2]
+        else:
+            self.c, self.A = basis.center_of_mass, basis.rigid_transform
+            self.B = mbm._unit_fields(np.asarray(s.nodes, float), s.dofs_per_node, self.c)
+            G = self.B.T @ (s.M @ self.B)
+            self.Phi = basis.rigid
         self.absB, self.absA = np.abs(self.B), np.abs(self.A)
         norm2 = lambda X: float(np.linalg.norm(X, 2))                   # noqa: E731
         E1 = gamma(self.n + self.r_M + 1) * norm2(self.absB.T @ (self.absM @ self.absB))
-        sv = np.linalg.eigvalsh(G)
-        s_min, s_max = float(sv[0]), float(sv[-1])
         eta = EIGH_6
+        sv = np.linalg.eigvalsh(0.5 * (G + G.T))
+        s_min = float(sv[0]) - 2 * E1 - 2 * eta * float(sv[-1])
+        s_max = float(sv[-1]) + 2 * E1 + 2 * eta * float(sv[-1])
         alpha = eta * (2 + eta) + 6 * gamma(8) * (1 + eta) ** 2
         kappa = (s_max + E1) / s_min
         AxG = math.sqrt(s_max) + (eta * s_max + E1) / math.sqrt(s_min)
@@ -217,6 +229,7 @@ def test_rigid_modes_mass_orthonormal_and_strain_free(which, small_plate):
     Phi = rigid_body_modes(s)
     assert Phi.shape == (s.n_dof, 6)
     r = _RigidRounding(s)
+    assert np.array_equal(r.Phi, Phi)               # identity: the same calls on the same structure in this process
     absPhi = np.abs(Phi)
     # ||Phi^T M Phi - I||_2 <= e_orth (_RigidRounding: eigh's backward error over the Gram matrix's smallest
     # eigenvalue dominates), plus this product's own rounding gamma_{n + r_M} |Phi|^T |M| |Phi|
@@ -253,6 +266,7 @@ def test_rigid_modes_reproduce_rigid_fields_exactly(which, kind, small_plate):
     # modes' orthonormality, which test_rigid_modes_mass_orthonormal_and_strain_free bounds a priori), the span
     # terms F a priori: what is tested is that the modes span the rigid fields to their rounding
     r = _RigidRounding(s)
+    assert np.array_equal(r.Phi, Phi)               # identity: the same calls on the same structure in this process
     absPhi = np.abs(Phi)
     d = np.abs(r.c - x0)
     t = np.r_[np.abs(a) + [abs(theta[1]) * d[2] + abs(theta[2]) * d[1], abs(theta[2]) * d[0] + abs(theta[0]) * d[2],
@@ -309,7 +323,7 @@ def test_rigid_transform_maps_rigid_coordinates_to_translation_and_rotation(smal
     # A Phi^T M B_ex t = A (I + E) w - A Phi^T M F w = t + A E w - A Phi^T M F w (as in
     # test_rigid_modes_reproduce_rigid_fields_exactly: E computed exactly, F <= gamma_7 |B| |A| a priori); A Phi^T M du;
     # the check's rounding: q (gamma_{n + r_M} |Phi|^T |M| |u|), A q (gamma_6 |A| |q|)
-    r = _RigidRounding(small_plate)
+    r = _RigidRounding(small_plate, mb)
     Phi = mb.rigid
     absPhi = np.abs(Phi)
     w = r.inv_A * float(np.linalg.norm(np.r_[a, theta]))
@@ -350,7 +364,7 @@ def test_basis_orthonormal_and_stiffness_diagonal(which, request):
     # - E y^_k + Phi^T M delta_k with ||E||_2 <= e_orth (_RigidRounding); then Psi_F = fl(V_2 Q) (gamma_nf |V_2| |Q|)
     # and this product's own rounding gamma_{n + r_M} |Phi|^T |M| |Psi_F|
     Vs, Q = _rayleigh_ritz(s, mb)
-    rr = _RigidRounding(s)
+    rr = _RigidRounding(s, mb)
     Phi, absPhi = mb.rigid, np.abs(mb.rigid)
     V_1, V = Vs[1], Vs[2]
     with limited_for(rr.n):
