@@ -22,7 +22,7 @@ BODY_FILE = "flexfmu_body.npz"
 
 @dataclass(frozen=True)
 class ExportedSpec:
-    """What flexfmu.fmi.plumbing asks of an FMU (as flexfmu.fmi.registry.FmuSpec), for one FlexBody."""
+    """An FMU of one FlexBody (a flexfmu.fmi.slave.FmuModel, as flexfmu.fmi.registry.FmuSpec)."""
 
     name: str
     description: str
@@ -56,6 +56,11 @@ class ExportedSpec:
 
     def make_simulator(self, config):
         return self._simulator_module.FlexBodySimulator(self.body, config)
+
+    def slave_source(self) -> tuple[str, str]:
+        """The slave finds its body in the FMU's resources folder."""
+        return ("from flexfmu.fmi.body_fmu import exported_spec",
+                f"exported_spec(self.resources, {self.name!r}, {self.description!r})")
 
 
 def exported_spec(resources: str, name: str, description: str) -> ExportedSpec:

@@ -13,12 +13,11 @@ from __future__ import annotations
 import argparse
 import shutil
 import tempfile
-import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from flexfmu import __version__
-from flexfmu.fmi import registry, runtime
+from flexfmu.fmi import archive, registry, runtime
 from flexfmu.fmi.loader import package_build_id
 
 PACKAGE = Path(__file__).resolve().parents[1]      # the flexfmu package this module belongs to
@@ -64,17 +63,12 @@ def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> 
 
 
 def _rewrite_model_description(fmu: Path, info: dict, experiment: dict, documentation: dict | None = None) -> None:
-    with zipfile.ZipFile(fmu) as zf:
-        members = {name: zf.read(name) for name in zf.namelist()}
+    members = archive.read_members(fmu)
     members["modelDescription.xml"] = _complete_model_description(
         members["modelDescription.xml"].decode("utf-8"), info, experiment)
     for name, text in (documentation or {}).items():
         members[f"documentation/{name}"] = text.encode("utf-8")
-    tmp = fmu.with_suffix(".tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, data in members.items():
-            zf.writestr(name, data)
-    tmp.replace(fmu)
+    archive.write_members(fmu, members)
 
 
 def build_one(name: str, script_text: str, info: dict, experiment: dict, target: Path, runtime_files,
@@ -96,6 +90,8 @@ def build_one(name: str, script_text: str, info: dict, experiment: dict, target:
         shutil.copytree(PACKAGE, package, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         fmu = Path(FmuBuilder.build_FMU(script, dest=tmp, project_files=[package, *map(Path, resources)],
                                         canGetAndSetFMUstate=True, canSerializeFMUstate=True))
+        # the slave script, readable beside the documentation (the runtime loads the copy in resources/)
+        documentation = {**(documentation or {}), f"{name}_slave.py": script_text}
         _rewrite_model_description(fmu, info, experiment, documentation)
         runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": name})
         target = Path(target)

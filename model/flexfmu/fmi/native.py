@@ -80,7 +80,6 @@ import struct
 import tempfile
 import threading
 import uuid
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -88,6 +87,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from flexfmu.errors import ParameterError
+from flexfmu.fmi import archive
 
 HERE = Path(__file__).resolve().parent
 FMI_CSRC = HERE / "csrc"
@@ -572,14 +572,7 @@ def build_native_fmu(source: NativeSource, target) -> Path:
         for name, path in source_files().items():
             members[f"sources/{name}"] = path.read_bytes()
         target.parent.mkdir(parents=True, exist_ok=True)
-        partial = target.with_name(target.name + ".tmp")
-        with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
-            for name, data in sorted(members.items()):
-                entry = zipfile.ZipInfo(name, date_time=(2020, 1, 1, 0, 0, 0))
-                entry.compress_type = zipfile.ZIP_DEFLATED
-                entry.external_attr = (0o755 if name.endswith(".so") else 0o644) << 16
-                zf.writestr(entry, data)
-        partial.replace(target)
+        archive.write_members(target, members)
     problems = validate_fmu(str(target))
     if problems:
         raise RuntimeBuildError(f"{target}: fmpy validate found problems:\n" + "\n".join(problems))

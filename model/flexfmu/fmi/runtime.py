@@ -26,10 +26,11 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
-import zipfile
 from importlib import metadata
 from pathlib import Path
 from xml.etree import ElementTree as ET
+
+from flexfmu.fmi import archive
 
 HERE = Path(__file__).resolve().parent
 RUNTIME = HERE / "csrc"
@@ -131,8 +132,7 @@ def requirements(root: str = "flexfmu") -> str:
 
 def install(fmu: Path, front: Path, bridge: Path, build_info: dict) -> None:
     """Put the runtime into the pythonfmu FMU at ``fmu`` (in place)."""
-    with zipfile.ZipFile(fmu) as zf:
-        members = {info.filename: zf.read(info) for info in zf.infolist()}
+    members = archive.read_members(fmu)
     description = ET.fromstring(members["modelDescription.xml"])
     model_id = description.find("CoSimulation").get("modelIdentifier")
     info = {**build_info, "guid": description.get("guid"), "model": model_id}
@@ -144,14 +144,7 @@ def install(fmu: Path, front: Path, bridge: Path, build_info: dict) -> None:
     kept["resources/flexfmu_build.json"] = json.dumps(info, indent=1).encode()
     kept["resources/flexfmu_runtime.txt"] = runtime_settings().encode()
     kept["resources/requirements.txt"] = requirements().encode()
-    tmp = fmu.with_name(fmu.name + ".tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zf:
-        for name, data in sorted(kept.items()):
-            entry = zipfile.ZipInfo(name, date_time=(2020, 1, 1, 0, 0, 0))
-            entry.compress_type = zipfile.ZIP_DEFLATED
-            entry.external_attr = (0o755 if name.endswith(".so") else 0o644) << 16
-            zf.writestr(entry, data)
-    tmp.replace(fmu)
+    archive.write_members(fmu, kept)
 
 
 def build_folder() -> Path:
