@@ -34,10 +34,9 @@ import math
 import numpy as np
 
 from error_bounds import gamma, implementations_bound
+from flexfmu.core.structure import N_RIGID
 from flexfmu.reframe.kernels_numpy import _blocks, _dTdq
 from flexfmu.reframe.layout import param_layout
-
-N_RIGID = 6
 
 
 def _split(P, nf, y):

@@ -19,10 +19,10 @@ from flexfmu.body.free import FreeDynamics, free_invariants
 from flexfmu.body.interfaces import resolve_interfaces
 from flexfmu.body.model import FlexBody
 from flexfmu.body.simulator import FlexBodyConfig, FlexBodySimulator, input_names, output_names, variable_info
-from flexfmu.core.structure import Structure
+from flexfmu.core.structure import N_RIGID, Structure
 from flexfmu.errors import NonFiniteError, ParameterError, StepRejected
 from flexfmu.ffr.assembly import build_beam_model
-from flexfmu.linalg.modal_basis import N_RIGID, modal_basis
+from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.integrator import PointLoad, ReframeIntegrator
 from flexfmu.reframe.models import load_model
 

@@ -1,5 +1,6 @@
 """The C reframe kernels (flexfmu/native/csrc/reframe_kernels.c through flexfmu.native.reframe) against their
-numpy reference (flexfmu.reframe.kernels_numpy) and the scalar helpers of flexfmu.reframe.kernels: every public
+numpy reference (flexfmu.reframe.kernels_numpy) and the Python scalar helpers (kernels_numpy; the rotation
+formulas of flexfmu.core.rotation): every public
 kernel (steps, outputs, max elastic displacement search) on random data and on real models (the default
 ReframeBody plate, a free body with interfaces, the bent rod with geometric stiffness), both schemes, and the
 binding's contract (fresh arrays, in-place changes seen, conversions, threads, errors, a C caller of the header).
@@ -22,7 +23,9 @@ import numpy as np
 import pytest
 
 from error_bounds import U, gamma
+from flexfmu.core import rotation
 from flexfmu.reframe import kernels as K
+from flexfmu.reframe import kernels_numpy as KN
 from reframe_bounds import outputs_bound, steps_bound
 from flexfmu.reframe.layout import output_layout, param_layout
 
@@ -432,7 +435,7 @@ def test_max_elastic_displacement_search_equals_all_nodes(C, plate_cases):
     rows = (case.dpn * np.arange(case.Psi.shape[0] // case.dpn)[:, None] + np.arange(3)).ravel()
     for q in [rng.standard_normal(nf), np.eye(nf)[0], np.eye(nf)[nf - 1], np.full(nf, 1e-4), np.zeros(nf)]:
         c = C.max_node_norm(case.Psi, 6, case.dpn, order, bc, br, sc, sr, q)
-        blocks = K.max_node_norm_blocks(case.Psi, 6, case.dpn, order, bc, br, sc, sr, q)
+        blocks = KN.max_node_norm_blocks(case.Psi, 6, case.dpn, order, bc, br, sc, sr, q)
         full = K.max_node_norm_numpy(case.Psi, 6, case.dpn, order, bc, br, sc, sr, q)
         # identity: the plain-Python search performs the C search's operations in the same order (node sums
         # j = 0..nf-1 from 0.0, then u0^2 + u1^2 + u2^2, sqrt; the same bounds): the same maximum bit for bit
@@ -445,11 +448,11 @@ def test_max_elastic_displacement_search_equals_all_nodes(C, plate_cases):
     q = rng.standard_normal(nf)
     qn = float(np.linalg.norm(q))
     for b in (0, 3, bc.shape[0] - 1):
-        assert C.bound(bc, br, b, q, qn) == K._bound(bc, br, b, q, qn)
+        assert C.bound(bc, br, b, q, qn) == KN._bound(bc, br, b, q, qn)
         assert C.block_norm(case.Psi, 6, case.dpn, order, b, q, 0.0) == \
-            K._block_norm(case.Psi, 6, case.dpn, order, b, q, 0.0)
+            KN._block_norm(case.Psi, 6, case.dpn, order, b, q, 0.0)
     for s in (0, sc.shape[0] - 1):
-        assert C.bound(sc, sr, s, q, qn) == K._bound(sc, sr, s, q, qn)
+        assert C.bound(sc, sr, s, q, qn) == KN._bound(sc, sr, s, q, qn)
 
 
 def _mp_rodrigues(phi):
@@ -487,7 +490,7 @@ def test_scalar_helpers_equal_the_python_ones(C):
         lam = rng.normal(size=3)
         phi = th * lam / np.linalg.norm(lam)
         R = np.empty(9)
-        K._rodrigues_into(phi, R)
+        rotation.rodrigues_into(phi, R)
         R_mp, a, b, th_mp = _mp_rodrigues(phi)
         # entries 1 + b (x^2 - th^2), +-a z + b x y: a = sin/th within gamma_4 |a| (series: + th^6/5040), b th^2 =
         # (1 - cos) th^2/th2 within 2u (cos's ulp) + gamma_4 |b| th^2 (series: + th^6/40320), products and sums of
@@ -506,23 +509,23 @@ def test_scalar_helpers_equal_the_python_ones(C):
         else:
             c_bound = gamma(8) * abs(c_mp) + 2 * th_f ** 8 / 47900160
         assert abs(C.rate_coefficient(th_f) - c_mp) <= c_bound
-        assert abs(K._rate_coefficient(th_f) - c_mp) <= c_bound
+        assert abs(rotation.rotvec_rate_coefficient(th_f) - c_mp) <= c_bound
         _check_quaternion(C, R)
     for _ in range(20):
         S = rng.standard_normal((3, 3))
         r = rng.standard_normal(3)
         # identity: elimination with partial pivoting, the same operations in the same order in C (compiled with
         # -ffp-contract=off) and Python, no libm: bit for bit
-        assert np.array_equal(C.solve3(S, r), K._solve3(S, r))
+        assert np.array_equal(C.solve3(S, r), KN._solve3(S, r))
     # the four quaternion branches (largest diagonal element)
     for axis in range(3):
         phi = np.zeros(3)
         phi[axis] = 3.0
         R = np.empty(9)
-        K._rodrigues_into(phi, R)
+        rotation.rodrigues_into(phi, R)
         _check_quaternion(C, R)
     for nf in (0, 1, 4, 9, 30):
-        assert C.offsets(nf) == tuple(param_layout(nf)) == K._offsets(nf)
+        assert C.offsets(nf) == tuple(param_layout(nf))
 
 
 def _check_quaternion(C, R):
@@ -531,7 +534,7 @@ def _check_quaternion(C, R):
     / (4 w), w >= 1/4, gamma_4 relative on components <= 1; the re-normalisation <= 12 roundings and 3 libm calls
     (1 ulp) on quantities <= 1: gamma_18.  So |C - Python| <= | |Q| - 1 | + gamma_4 + gamma_18 per component
     (|Q| computed, its own rounding gamma_4)."""
-    Q = K._quaternion(R.reshape(3, 3))
+    Q = rotation.quaternion_from_rotation(R.reshape(3, 3))
     assert np.max(np.abs(C.quaternion(R.reshape(3, 3)) - Q)) <= abs(np.linalg.norm(Q) - 1.0) + 2 * gamma(4) + gamma(18)
 
 

@@ -245,12 +245,13 @@ def test_rodrigues_matches_scipy_and_expm():
 
 
 def test_the_rodrigues_and_skew_implementations_agree():
-    """The hot-path Rodrigues of the paper scheme (core.vec3, matrix products) and the reframe kernels'
-    element-wise one (numpy and C) are the same formula: equal up to rounding, and equal to
-    rotation_matrix(phi).T and scipy.  The unchecked skew, the checked one and wec.wave's are one."""
-    from flexfmu.core import vec3
+    """Rodrigues is written once in Python (core.rotation): its hot-path forms (rodrigues, rodrigues_into: the paper
+    scheme and the numpy reframe kernels) and the checked rotation_matrix (the transpose) are equal bit for bit;
+    the C kernels' twin (ffx_reframe_rodrigues, the same expressions) and scipy are within the rounding bound of
+    the exact rotation.  The unchecked skew, the checked one and wec.wave's are one."""
+    from flexfmu.core import rotation, vec3
     from flexfmu.native import reframe as native
-    from flexfmu.reframe import kernels, kernels_numpy
+    from flexfmu.reframe import kernels
     from flexfmu.wec import wave
 
     rng = np.random.default_rng(5)
@@ -258,13 +259,13 @@ def test_the_rodrigues_and_skew_implementations_agree():
         lam = rng.normal(size=3)
         phi = th * lam / np.linalg.norm(lam)
         R_ref = Rotation.from_rotvec(phi).as_matrix()
-        R_vec3 = vec3.rodrigues(phi)
-        R_np = kernels_numpy._rodrigues(phi)
+        R = rotation.rodrigues(phi)
+        assert np.array_equal(rotation.rodrigues_into(phi, np.empty(9)).reshape(3, 3), R)
+        assert np.array_equal(rotation_matrix(phi).T, R)
         compiled = [native.rodrigues(phi).reshape(3, 3)] if kernels.NATIVE else []      # the C kernels' own
         # each (and scipy) within _rot_bound(th) of the exact rotation: two evaluations differ by twice it
-        for R in (R_vec3, R_np, *compiled, rotation_matrix(phi).T):
-            np.testing.assert_allclose(R, R_ref, rtol=0, atol=2 * _rot_bound(th))
-        np.testing.assert_allclose(R_np, R_vec3, rtol=0, atol=2 * _rot_bound(th))
+        for R_other in (R, *compiled):
+            np.testing.assert_allclose(R_other, R_ref, rtol=0, atol=2 * _rot_bound(th))
         assert np.array_equal(skew(phi), vec3.skew(phi)) and wave._skew is vec3.skew
 
 

@@ -26,6 +26,20 @@ Conventions (all SI: m, m/s, m/s^2, rad, rad/s, rad/s^2; float64)
 * ``angular_velocity`` / ``angular_acceleration`` are frame-agnostic: all
   inputs in one frame (global or body), result in that same frame.
 
+The one home of the rotation formulas
+-------------------------------------
+Each formula is written once, here: Rodrigues (:func:`rodrigues`,
+:func:`rodrigues_into`; checked: :func:`rotation_matrix`), the rotation
+vector and unit quaternion of a matrix (:func:`quaternion_from_rotation`;
+checked: :func:`rotvec_from_matrix`) and the rotation-vector rate of
+Eqs. (20)-(22) (:func:`rotvec_rate_unchecked`, :func:`rotvec_rate_coefficient`;
+checked: :func:`rotvec_rate`).  The unchecked forms are for per-step hot paths
+(the numpy reframe kernels, the paper scheme) and take float (3,) / (3, 3)
+arrays as they are; the checked ones check user input and call them.  The C
+kernels (flexfmu/native/csrc/reframe_kernels.c) keep their own twins with the
+same expressions in the same order (native FMUs have no Python);
+tests/test_native_reframe_kernels.py compares the two.
+
 Derivations of the equations missing from the extracted text
 ------------------------------------------------------------
 Eq. (4)  ``{e1, e2, e3}^T = B {n'1, n'2, n'3}^T``: row i of B holds the
@@ -66,9 +80,13 @@ series for small theta (``c(0) = 1/12``, no 0/0) and is singular at
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from flexfmu.errors import ParameterError
+from flexfmu.core.vec3 import components as _components
+from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew_unchecked
 
 __all__ = [
@@ -79,9 +97,13 @@ __all__ = [
     "angular_velocity",
     "angular_acceleration_oblique",
     "angular_acceleration",
+    "rodrigues",
+    "rodrigues_into",
     "rotation_matrix",
     "rotvec_from_matrix",
+    "quaternion_from_rotation",
     "rotvec_rate",
+    "rotvec_rate_unchecked",
     "rotvec_rate_matrix",
     "reparametrize",
     "rotvec_rate_coefficient",
@@ -95,6 +117,8 @@ MIN_SINE = 1e-6
 # Below this angle c(theta) of Eq. (22) is taken from its Taylor series
 # (truncation error < theta**8 / 4.8e7 < 3e-16 at the switch).
 _SERIES_THETA = 0.1
+# Below this angle Rodrigues' coefficients sin(t)/t and (1 - cos t)/t^2 are taken from their series.
+_RODRIGUES_SERIES_THETA = 1e-4
 
 
 # --------------------------------------------------------------------------
@@ -269,6 +293,42 @@ def angular_acceleration(p_vec, q_vec, v_PR, v_QR, a_PR, a_QR, omega,
 # --------------------------------------------------------------------------
 # Rodrigues and its inverse  (Eqs. 17-19)
 # --------------------------------------------------------------------------
+def _rodrigues_entries(x: float, y: float, z: float) -> tuple:
+    """The 9 entries (row-major) of ``exp(skew(phi))``, phi = (x, y, z): the one Rodrigues formula.
+
+    ``I + a K + b K K`` with ``K = skew(phi)``, ``a = sin(t)/t``, ``b = (1 - cos t)/t^2`` (t = |phi|; series
+    below 1e-4 rad) and ``K K = phi phi^T - t^2 I``, element by element: the expressions, in this order, of
+    the C kernels' twin ffx_reframe_rodrigues (flexfmu/native/csrc/reframe_kernels.c, compared in
+    tests/test_native_reframe_kernels.py).
+    """
+    th2 = x * x + y * y + z * z
+    th = math.sqrt(th2)
+    if th < _RODRIGUES_SERIES_THETA:
+        a = 1.0 - th2 / 6.0 + th2 * th2 / 120.0
+        b = 0.5 - th2 / 24.0 + th2 * th2 / 720.0
+    else:
+        a = math.sin(th) / th
+        b = (1.0 - math.cos(th)) / th2
+    return (1.0 + b * (x * x - th2), -a * z + b * x * y, a * y + b * x * z,
+            a * z + b * x * y, 1.0 + b * (y * y - th2), -a * x + b * y * z,
+            -a * y + b * x * z, a * x + b * y * z, 1.0 + b * (z * z - th2))
+
+
+def rodrigues(phi) -> np.ndarray:
+    """``exp(skew(phi))`` (3, 3), unchecked (hot paths; phi: a float (3,) array): the **body -> global**
+    matrix of the rotation vector phi, ``rotation_matrix(phi).T``, scipy's
+    ``Rotation.from_rotvec(phi).as_matrix()``.  Formula: :func:`_rodrigues_entries`."""
+    x, y, z = _components(phi)
+    return np.array(_rodrigues_entries(x, y, z)).reshape(3, 3)
+
+
+def rodrigues_into(phi, R) -> np.ndarray:
+    """:func:`rodrigues` written into the row-major (9,) array R (returned), unchecked."""
+    x, y, z = _components(phi)
+    R[:] = _rodrigues_entries(x, y, z)
+    return R
+
+
 def rotation_matrix(rotvec) -> np.ndarray:
     """Eqs. (18)-(19): ``A = exp(theta M_hat) = I + sin(theta) M_hat + (1 - cos(theta)) M_hat^2``.
 
@@ -276,16 +336,53 @@ def rotation_matrix(rotvec) -> np.ndarray:
     A maps **global components to body components** (``v_body = A @ v_global``)
     and equals ``Rotation.from_rotvec(rotvec).as_matrix().T``.
 
-    Written as ``I + (sin t / t) M + ((1 - cos t)/t^2) M^2`` with
-    ``M = paper_skew(rotvec)`` and both coefficients from ``np.sinc``, so
-    theta = 0 needs no special case.
+    The checked form of :func:`rodrigues` (``A = rodrigues(rotvec).T``: ``M = paper_skew(phi) = -skew(phi)``);
+    its series for the coefficients below 1e-4 rad makes theta = 0 no special case.
     """
-    phi = _vec3(rotvec, "rotvec")
-    theta = float(np.linalg.norm(phi))
-    M = paper_skew(phi)
-    a = np.sinc(theta / np.pi)                        # sin(t)/t
-    b = 0.5 * np.sinc(theta / (2.0 * np.pi)) ** 2     # (1 - cos t)/t^2 = 2 sin^2(t/2)/t^2
-    return np.eye(3) + a * M + b * (M @ M)
+    return rodrigues(_vec3(rotvec, "rotvec")).T.copy()
+
+
+def _rotvec_of(R) -> tuple:
+    """The rotation vector (px, py, pz), ``|phi| <= pi``, of the **body -> global** matrix R (unchecked): the
+    unit quaternion by Shepperd's largest-pivot method (scalar part made >= 0), then
+    ``theta = 2 atan2(|q_v|, q_w)``.  The one home of the formula (:func:`rotvec_from_matrix`,
+    :func:`quaternion_from_rotation`; the C kernels' twin is ffx_reframe_quaternion)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, dtype=np.float64).tolist()
+    tr = r00 + r11 + r22
+    k = 0
+    best = tr
+    for i, d in enumerate((r00, r11, r22)):      # the largest pivot (the first of equal ones)
+        if d > best:
+            best = d
+            k = i + 1
+    if k == 0:
+        w = 0.5 * math.sqrt(1.0 + tr)
+        x = (r21 - r12) / (4 * w)
+        y = (r02 - r20) / (4 * w)
+        z = (r10 - r01) / (4 * w)
+    elif k == 1:
+        x = 0.5 * math.sqrt(1.0 + r00 - r11 - r22)
+        w = (r21 - r12) / (4 * x)
+        y = (r01 + r10) / (4 * x)
+        z = (r02 + r20) / (4 * x)
+    elif k == 2:
+        y = 0.5 * math.sqrt(1.0 - r00 + r11 - r22)
+        w = (r02 - r20) / (4 * y)
+        x = (r01 + r10) / (4 * y)
+        z = (r12 + r21) / (4 * y)
+    else:
+        z = 0.5 * math.sqrt(1.0 - r00 - r11 + r22)
+        w = (r10 - r01) / (4 * z)
+        x = (r02 + r20) / (4 * z)
+        y = (r12 + r21) / (4 * z)
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    n = math.sqrt(x * x + y * y + z * z)
+    if n < 1e-8:   # theta < 2e-8: 2 atan2(n, w)/n = (2/w)(1 - (n/w)^2/3 + ...)
+        scale = (2.0 / w) * (1.0 - (n / w) ** 2 / 3.0)
+    else:
+        scale = 2.0 * math.atan2(n, w) / n
+    return scale * x, scale * y, scale * z
 
 
 def rotvec_from_matrix(A, atol: float = 1e-6) -> np.ndarray:
@@ -294,7 +391,7 @@ def rotvec_from_matrix(A, atol: float = 1e-6) -> np.ndarray:
     A: global->body rotation matrix (same convention as :func:`rotation_matrix`).
     Robust for all angles including theta ~ pi: goes through the unit
     quaternion of ``A.T`` (Shepperd's largest-pivot method, scalar part
-    made >= 0) and ``theta = 2 atan2(|q_v|, q_w)``.  At exactly theta = pi
+    made >= 0) and ``theta = 2 atan2(|q_v|, q_w)`` (:func:`_rotvec_of`).  At exactly theta = pi
     the sign of phi is arbitrary (both describe the same rotation).
 
     Raises :class:`ParameterError` ("A") if A is not 3x3, not finite, or not
@@ -310,50 +407,38 @@ def rotvec_from_matrix(A, atol: float = 1e-6) -> np.ndarray:
     if err > atol or np.linalg.det(A) <= 0.0:
         raise ParameterError("A", f"not a proper rotation (|A^T A - I| = {err:.3g}, det = "
                                   f"{np.linalg.det(A):.6g})", f"orthonormal within {atol:g}, det = +1")
-    R = A.T  # body -> global; R = exp(skew(phi))
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
-    if k == 0:
-        w = 0.5 * np.sqrt(1.0 + tr)
-        x = (R[2, 1] - R[1, 2]) / (4 * w)
-        y = (R[0, 2] - R[2, 0]) / (4 * w)
-        z = (R[1, 0] - R[0, 1]) / (4 * w)
-    elif k == 1:
-        x = 0.5 * np.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        w = (R[2, 1] - R[1, 2]) / (4 * x)
-        y = (R[0, 1] + R[1, 0]) / (4 * x)
-        z = (R[0, 2] + R[2, 0]) / (4 * x)
-    elif k == 2:
-        y = 0.5 * np.sqrt(1.0 - R[0, 0] + R[1, 1] - R[2, 2])
-        w = (R[0, 2] - R[2, 0]) / (4 * y)
-        x = (R[0, 1] + R[1, 0]) / (4 * y)
-        z = (R[1, 2] + R[2, 1]) / (4 * y)
-    else:
-        z = 0.5 * np.sqrt(1.0 - R[0, 0] - R[1, 1] + R[2, 2])
-        w = (R[1, 0] - R[0, 1]) / (4 * z)
-        x = (R[0, 2] + R[2, 0]) / (4 * z)
-        y = (R[1, 2] + R[2, 1]) / (4 * z)
-    qv = np.array([x, y, z])
-    if w < 0.0:
-        w, qv = -w, -qv
-    n = float(np.linalg.norm(qv))
-    if n < 1e-8:   # theta < 2e-8: 2 atan2(n, w)/n = (2/w)(1 - (n/w)^2/3 + ...)
-        scale = (2.0 / w) * (1.0 - (n / w) ** 2 / 3.0)
-    else:
-        scale = 2.0 * np.arctan2(n, w) / n
-    return scale * qv
+    return np.array(_rotvec_of(A.T))  # A.T: body -> global, R = exp(skew(phi))
+
+
+def quaternion_from_rotation(R) -> np.ndarray:
+    """Unit quaternion (w, x, y, z), w >= 0, of the **body -> global** rotation matrix R (unchecked: hot
+    paths, the reframe outputs): ``(cos(t/2), sin(t/2) phi/t)`` of ``phi = _rotvec_of(R)``, t = |phi|."""
+    px, py, pz = _rotvec_of(R)
+    th = math.sqrt(px * px + py * py + pz * pz)
+    s = 0.5 if th == 0.0 else math.sin(0.5 * th) / th
+    return np.array((math.cos(0.5 * th), s * px, s * py, s * pz))
 
 
 # --------------------------------------------------------------------------
 # rotation-vector evolution  (Eqs. 20-22)
 # --------------------------------------------------------------------------
 def rotvec_rate_coefficient(theta: float) -> float:
-    """``c(theta) = (1 - (theta/2) cot(theta/2)) / theta^2`` of Eq. (22); series near 0."""
+    """``c(theta) = (1 - (theta/2) cot(theta/2)) / theta^2`` of Eq. (22); series near 0 (theta >= 0).
+
+    The one Python form (the C kernels' twin: ffx_reframe_rate_coefficient)."""
     if theta < _SERIES_THETA:
         t2 = theta * theta
         return 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 / 1209600.0))
     half = 0.5 * theta
-    return (1.0 - half * np.cos(half) / np.sin(half)) / (theta * theta)
+    return (1.0 - half * math.cos(half) / math.sin(half)) / (theta * theta)
+
+
+def rotvec_rate_unchecked(phi, w) -> np.ndarray:
+    """:func:`rotvec_rate` without input checks (hot paths; phi, w: float (3,) arrays)."""
+    p0, p1, p2 = _components(phi)
+    th = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+    pxw = _cross(phi, w)
+    return w + 0.5 * pxw + rotvec_rate_coefficient(th) * _cross(phi, pxw)
 
 
 def rotvec_rate(rotvec, omega_body) -> np.ndarray:
@@ -369,13 +454,10 @@ def rotvec_rate(rotvec, omega_body) -> np.ndarray:
     This is ``paper_skew^{-1}`` of Eq. (20)'s ``dM/dt = f^{-1} Omega``
     (see :func:`rotvec_rate_matrix`).  Singular at theta = 2 pi: keep
     theta <= pi with :func:`reparametrize` (call it after every accepted
-    integration step, never between the stages of one step).
+    integration step, never between the stages of one step).  The checked form of
+    :func:`rotvec_rate_unchecked`.
     """
-    phi = _vec3(rotvec, "rotvec")
-    w = _vec3(omega_body, "omega_body")
-    theta = float(np.linalg.norm(phi))
-    pxw = np.cross(phi, w)
-    return w + 0.5 * pxw + rotvec_rate_coefficient(theta) * np.cross(phi, pxw)
+    return rotvec_rate_unchecked(_vec3(rotvec, "rotvec"), _vec3(omega_body, "omega_body"))
 
 
 def rotvec_rate_matrix(M_hat, theta: float, Omega) -> np.ndarray:

@@ -11,6 +11,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from flexfmu.core.checks import shown
+from flexfmu.errors import ParameterError
+
+#: Rigid-body modes of a free structure in 3-D (three translations, three rotations): the first columns of a
+#: modal basis (flexfmu.linalg.modal_basis) and of the reframe integrator's eta (flexfmu.reframe.layout; the C
+#: kernels' twin is FFX_REFRAME_N_RIGID).  Defined once, here; every user imports it from this module.
+N_RIGID = 6
+
 
 @dataclass(frozen=True)
 class Provenance:
@@ -69,3 +77,12 @@ class Structure:
     @property
     def n_nodes(self) -> int:
         return self.nodes.shape[0]
+
+
+def node_set(structure, name: str):
+    """The sorted node indices of ``structure``'s node set ``name``; ParameterError listing the sets if absent."""
+    sets = getattr(structure, "node_sets", None) or {}
+    if name not in sets:
+        raise ParameterError("node_set", f"{name!r} is not a node set of {shown(structure.name or 'the model')}",
+                             ", ".join(sorted(sets)) or "none: the model file defines no node sets")
+    return sets[name]

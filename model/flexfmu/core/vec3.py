@@ -1,19 +1,28 @@
 """Unchecked 3-vector helpers for per-step hot paths (np.cross costs ~30 us per call; these ~1 us).
 
 The checked, documented versions for user input live in :mod:`flexfmu.core.rotation`; they check
-their input and then call these, so each formula exists once.
+their input and then call these, so each formula exists once.  The rotation formulas themselves
+(Rodrigues, the rotation vector and quaternion of a matrix, the rotation-vector rate) live there too,
+each with an unchecked hot-path form (:func:`flexfmu.core.rotation.rodrigues`, ...).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+_F64 = np.dtype(np.float64)
+
+
+def components(v):
+    """The components of v: Python floats when v is a 1-D float64 numpy array (arithmetic on them is the same
+    IEEE double arithmetic as on numpy scalars, several times faster), else v itself (unpacked by the caller:
+    the rows of a (3, n) array, for instance)."""
+    return v.tolist() if v.__class__ is np.ndarray and v.dtype is _F64 and v.ndim == 1 else v
 
 
 def cross(a, b) -> np.ndarray:
     """a x b."""
-    a0, a1, a2 = a
-    b0, b1, b2 = b
+    a0, a1, a2 = components(a)
+    b0, b1, b2 = components(b)
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
@@ -21,22 +30,3 @@ def skew(v) -> np.ndarray:
     """Cross-product matrix: skew(a) @ b == a x b."""
     x, y, z = v
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
-
-
-def rodrigues(phi) -> np.ndarray:
-    """exp(skew(phi)) as I + a K + b K K, K = skew(phi) (= scipy ``Rotation.from_rotvec(phi).as_matrix()``;
-    series for a, b below 1e-4 rad).  phi: float (3,) array, unchecked.
-
-    The reframe kernels (flexfmu.reframe.kernels, numpy and C) evaluate the same formula element by element,
-    K K = phi phi^T - |phi|^2 I, the form of the C kernels' loops; the two differ in rounding only
-    (tests/test_rotation.py compares them), and each scheme keeps its own so its numbers do not change."""
-    th2 = float(phi @ phi)
-    th = math.sqrt(th2)
-    if th < 1e-4:
-        a = 1.0 - th2 / 6.0 + th2 * th2 / 120.0
-        b = 0.5 - th2 / 24.0 + th2 * th2 / 720.0
-    else:
-        a = math.sin(th) / th
-        b = (1.0 - math.cos(th)) / th2
-    K = skew(phi)
-    return np.eye(3) + a * K + b * (K @ K)

@@ -40,9 +40,8 @@ from flexfmu.linalg.cutoffs import BASIS_DENSE_MAX_DOF
 from flexfmu.linalg.lanczos import (EPS, _block_lanczos, _mkl_pardiso, _MBasis, _normalize,  # noqa: F401
                                     _one_openblas_thread, _Pardiso, _shifted_solver, _upper_triangle)
 from flexfmu.linalg.modal import dense_low_modes
-from flexfmu.core.structure import Structure
+from flexfmu.core.structure import N_RIGID, Structure
 
-N_RIGID = 6
 DENSE_LIMIT = BASIS_DENSE_MAX_DOF   # n_dof up to which method="auto" uses dense eigh (why: flexfmu.linalg.cutoffs)
 DEFAULT_SIGMA = -1.0       # rad^2/s^2: shift for sparse shift-invert (K - sigma M is then definite)
 RIGID_FORCE_RTOL = 1e-8    # max|K phi_rigid| / max(|K| |phi_rigid|) allowed (free-free check)

@@ -25,6 +25,7 @@ from ctypes import POINTER, c_double, c_int, c_void_p
 
 import numpy as np
 
+from flexfmu.core.structure import N_RIGID
 from flexfmu.native.compiler import CSRC, load_kernels
 
 __all__ = ["library", "reframe_steps", "consistent_steps", "reframe_outputs", "consistent_outputs",
@@ -34,7 +35,9 @@ __all__ = ["library", "reframe_steps", "consistent_steps", "reframe_outputs", "c
 SOURCES = (CSRC / "reframe_kernels.c", CSRC / "lti_kernels.c")   # lti: ffx_lti_expm (exponential coefficients)
 #: FFX_REFRAME_ABI_VERSION of the header these bindings follow
 ABI_VERSION = 1
-N_RIGID = 6
+#: FFX_REFRAME_BLOCK: nodes per block and blocks per superblock of the max-displacement search (the one Python
+#: definition: flexfmu.reframe.layout and the kernels read it from here; N_RIGID, FFX_REFRAME_N_RIGID, is
+#: flexfmu.core.structure's)
 BLOCK = 16
 _F64 = np.dtype(np.float64)
 _I64 = np.dtype(np.int64)
@@ -393,7 +396,7 @@ def consistent_outputs(P, LP, nf, deformed, sv, y, PP, Psi, dpn, order, bc, br, 
 
 # --------------------------------------------------------------------------- search and helpers
 def max_node_norm(Psi, col, dpn, order, bc, br, sc, sr, q):
-    """max over nodes i of |Phi_i q| (as flexfmu.reframe.kernels.max_node_norm_numpy), by the block bounds."""
+    """max over nodes i of |Phi_i q| (as flexfmu.reframe.kernels_numpy.max_node_norm_numpy), by the block bounds."""
     q = np.asarray(q)
     nf = int(q.shape[0])
     if nf == 0:
@@ -418,13 +421,16 @@ def offsets(nf: int) -> tuple:
 
 
 def rodrigues(phi) -> np.ndarray:
-    """exp(skew(phi)), row-major (9,)."""
+    """exp(skew(phi)), row-major (9,), by the C kernels' ffx_reframe_rodrigues (the C twin of
+    flexfmu.core.rotation.rodrigues_into, for the tests that compare the two)."""
     R = _dbl(9)()
     library().ffx_reframe_rodrigues(_as_buffer(phi, 3, "phi"), R)
     return np.frombuffer(R, _F64, 9)
 
 
 def rate_coefficient(theta: float) -> float:
+    """c(theta) of Eq. (22) by ffx_reframe_rate_coefficient (the C twin of
+    flexfmu.core.rotation.rotvec_rate_coefficient)."""
     return library().ffx_reframe_rate_coefficient(float(theta))
 
 
@@ -436,14 +442,15 @@ def solve3(S, r) -> np.ndarray:
 
 
 def quaternion(R) -> np.ndarray:
-    """(w, x, y, z), w >= 0, of the rotation matrix R."""
+    """(w, x, y, z), w >= 0, of the body -> global rotation matrix R, by the C kernels' ffx_reframe_quaternion
+    (the C twin of flexfmu.core.rotation.quaternion_from_rotation, for the tests that compare the two)."""
     out = _dbl(4)()
     library().ffx_reframe_quaternion(_as_buffer(R, 9, "R"), out)
     return np.frombuffer(out, _F64, 4)
 
 
 def bound(C, r, b, q, qn) -> float:
-    """Upper bound of |Phi_i q| over (super)block b (kernels._bound)."""
+    """Upper bound of |Phi_i q| over (super)block b (flexfmu.reframe.kernels_numpy._bound)."""
     q = np.asarray(q)
     nf = int(q.shape[0])
     C = _f64(C, "C")
@@ -454,7 +461,7 @@ def bound(C, r, b, q, qn) -> float:
 
 
 def block_norm(Psi, col, dpn, order, b, q, best) -> float:
-    """max(best, |Phi_i q| over the nodes of block b) (kernels._block_norm)."""
+    """max(best, |Phi_i q| over the nodes of block b) (flexfmu.reframe.kernels_numpy._block_norm)."""
     q = np.asarray(q)
     nf = int(q.shape[0])
     Psi = _f64(Psi, "Psi")

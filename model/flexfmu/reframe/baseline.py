@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flexfmu.errors import ParameterError
-from flexfmu.linalg.modal_basis import N_RIGID
+from flexfmu.core.structure import N_RIGID
 from flexfmu.core.structure import Structure
 from flexfmu.reframe.modeldata import _check_dt, _check_initial, _ModelData
 

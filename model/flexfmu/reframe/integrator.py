@@ -75,9 +75,8 @@ from typing import NamedTuple
 import numpy as np
 
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.linalg.modal_basis import N_RIGID
-from flexfmu.core.rotation import oblique_basis
-from flexfmu.core.structure import Structure
+from flexfmu.core.rotation import oblique_basis, quaternion_from_rotation
+from flexfmu.core.structure import N_RIGID, Structure
 from flexfmu.core.step_size import same_step
 # Loads, states / results, the model checks and the baseline live in their own modules; their public
 # names are re-exported here, where the rest of flexfmu and its users import them from.
@@ -89,7 +88,7 @@ from flexfmu.reframe.loads import PointLoad, _Prepared, constant_load, half_sine
 from flexfmu.reframe.modeldata import RK4_STABILITY_LIMIT, _check_dt, _check_initial, _ModelData
 from flexfmu.reframe.schemes import SCHEMES, exponential_coefficients
 from flexfmu.reframe.results import (NodalState, ReframeResult, ReframeState, Snapshot, _state_from_vector,
-                                     _state_vector, quaternion_from_rotation)
+                                     _state_vector)
 
 __all__ = [
     "SCHEMES",

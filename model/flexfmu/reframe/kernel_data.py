@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from flexfmu.linalg.modal_basis import N_RIGID
+from flexfmu.core.structure import N_RIGID
 from flexfmu.reframe.layout import param_layout
 
 __all__ = ["inertia_invariants", "max_displacement_blocks"]

@@ -11,14 +11,19 @@ flexfmu.native.compiler), else the numpy ones; ``FLEXFMU_NATIVE_KERNELS=0`` in t
 ``*_numpy`` are always the numpy ones.  :data:`NATIVE` (bound on first use, as the kernels: the library is
 loaded, and compiled if needed, then) says which; :data:`NATIVE_REASON` why not C.
 
-This module holds the scalar helpers of the numpy kernels (the C file has their twins: ffx_reframe_rodrigues,
-_rate_coefficient, _solve3, _quaternion, _offsets, _bound, _block_norm, _max_node_norm) and the public names.
+This module holds only the public names and the choice between C and numpy.  The numpy kernels and their scalar
+helpers are in :mod:`flexfmu.reframe.kernels_numpy`, the rotation formulas they share with the rest of flexfmu
+in :mod:`flexfmu.core.rotation`, the layouts and constants (``BLOCK``, ``NOT_COMPUTED``) in
+:mod:`flexfmu.reframe.layout`; the C file has the twins (ffx_reframe_rodrigues, _rate_coefficient, _solve3,
+_quaternion, _offsets, _bound, _block_norm, _max_node_norm).  Imports run one way: layout <- kernels_numpy <-
+kernels (kernels_numpy and the C bindings are imported on first use).
 
 Everything here is O(n_modes^2) per step whatever the mesh size, except :func:`max_node_norm`
-(O(number of nodes) in the worst case, a few nodes in practice: see :func:`max_node_norm_blocks`).
+(O(number of nodes) in the worst case, a few nodes in practice: see
+:func:`flexfmu.reframe.kernels_numpy.max_node_norm_blocks`).
 
 Layouts of the flat arrays: ``P`` (model parameters), ``y`` (state) and the outputs of one state are
-declared in :mod:`flexfmu.reframe.layout` (``_offsets`` below gives ``P``'s offsets); the C header
+declared in :mod:`flexfmu.reframe.layout` (``param_layout`` gives ``P``'s offsets); the C header
 flexfmu/native/csrc/reframe_kernels.h documents all of them for C callers.  The integrator
 (``ReframeIntegrator._setup_consistent``, ``_kernel_loads``, ``_point_data``) builds the others:
 
@@ -36,247 +41,24 @@ flexfmu.body.free make them; other arrays are converted per call (correct, slowe
 """
 from __future__ import annotations
 
-import math
 import os
 import warnings
 
-import numpy as np
+# BLOCK, NOT_COMPUTED: the kernels' constants, which callers read as kernels.BLOCK and kernels.NOT_COMPUTED
+from flexfmu.reframe.layout import BLOCK, NOT_COMPUTED, output_layout, param_layout  # noqa: F401
 
 
 #: FLEXFMU_NATIVE_KERNELS=0 (false, no, off): the numpy kernels even when the C library is available
 _WANT_NATIVE = os.environ.get("FLEXFMU_NATIVE_KERNELS", "1").strip().lower() not in ("0", "false", "no", "off")
 
 
-#: below this rotation angle Eq. (22)'s coefficient uses its series (as flexfmu.core.rotation)
-_SERIES_THETA = 0.1
-N_RIGID = 6
-
-
-# --------------------------------------------------------------------------- small 3-vector helpers
-def _rodrigues_into(phi, R):
-    """exp(skew(phi)) into the row-major (9,) array R: I + a K + b K K with K K = phi phi^T - |phi|^2 I,
-    element by element as the C kernels' ffx_reframe_rodrigues (flexfmu.core.vec3.rodrigues, used by the paper
-    scheme, is the same formula with matrix products: equal up to rounding, compared in tests/test_rotation.py)."""
-    th2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
-    th = math.sqrt(th2)
-    if th < 1e-4:
-        a = 1.0 - th2 / 6.0 + th2 * th2 / 120.0
-        b = 0.5 - th2 / 24.0 + th2 * th2 / 720.0
-    else:
-        a = math.sin(th) / th
-        b = (1.0 - math.cos(th)) / th2
-    x, y, z = phi[0], phi[1], phi[2]
-    R[0] = 1.0 + b * (x * x - th2)
-    R[4] = 1.0 + b * (y * y - th2)
-    R[8] = 1.0 + b * (z * z - th2)
-    R[1] = -a * z + b * x * y
-    R[3] = a * z + b * x * y
-    R[2] = a * y + b * x * z
-    R[6] = -a * y + b * x * z
-    R[5] = -a * x + b * y * z
-    R[7] = a * x + b * y * z
-
-
-def _rate_coefficient(th):
-    """c(theta) of Eq. (22) (as flexfmu.core.rotation.rotvec_rate_coefficient)."""
-    if th < _SERIES_THETA:
-        t2 = th * th
-        return 1.0 / 12.0 + t2 * (1.0 / 720.0 + t2 * (1.0 / 30240.0 + t2 / 1209600.0))
-    half = 0.5 * th
-    return (1.0 - half * math.cos(half) / math.sin(half)) / (th * th)
-
-
-def _solve3(S, r):
-    """S x = r for a 3x3 S (Gaussian elimination with partial pivoting)."""
-    A = S.copy()
-    b = r.copy()
-    for k in range(3):
-        p = k
-        for i in range(k + 1, 3):
-            if abs(A[i, k]) > abs(A[p, k]):
-                p = i
-        if p != k:
-            for j in range(3):
-                tmp = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = tmp
-            tmp = b[k]
-            b[k] = b[p]
-            b[p] = tmp
-        for i in range(k + 1, 3):
-            f = A[i, k] / A[k, k]
-            for j in range(k, 3):
-                A[i, j] -= f * A[k, j]
-            b[i] -= f * b[k]
-    x = np.empty(3)
-    for i in range(2, -1, -1):
-        s = b[i]
-        for j in range(i + 1, 3):
-            s -= A[i, j] * x[j]
-        x[i] = s / A[i, i]
-    return x
-
-
-# --------------------------------------------------------------------------- model pieces
-def _offsets(nf):
-    """Start offsets of P's blocks (J0, A, B, C, D, k, c, A6, A6inv, com, end), as ffx_reframe_offsets."""
-    o_J0 = 1
-    o_A = o_J0 + 9
-    o_B = o_A + nf * 9
-    o_C = o_B + nf * 9
-    o_D = o_C + nf * nf * 9
-    o_k = o_D + nf * 3 * nf
-    o_c = o_k + nf
-    o_A6 = o_c + nf
-    o_A6i = o_A6 + 36
-    o_com = o_A6i + 36
-    return o_J0, o_A, o_B, o_C, o_D, o_k, o_c, o_A6, o_A6i, o_com, o_com + 3
-
-
 def param_size(nf: int) -> int:
     """Length of ``P`` for nf flexible modes."""
-    from flexfmu.reframe.layout import param_layout
     return param_layout(nf).end
-
-
-# --------------------------------------------------------------------------- outputs of one state
-#: nodes per block and blocks per superblock of the max-displacement search
-BLOCK = 16
-#: the max elastic displacement's place in the outputs when its search was skipped (a norm is never < 0)
-NOT_COMPUTED = -1.0
-
-
-def max_node_norm_numpy(Psi, col, dpn, order, bc, br, sc, sr, q):
-    """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...): all
-    nodes, vectorised (the numpy version of :func:`max_node_norm`)."""
-    nf = q.shape[0]
-    if nf == 0:
-        return 0.0
-    n_nodes = order.shape[0]
-    rows = (dpn * np.arange(n_nodes)[:, None] + np.arange(3)).ravel()
-    u = np.dot(Psi[rows, col:col + nf], q).reshape(n_nodes, 3)
-    return float(np.max(np.sqrt(np.einsum("ic,ic->i", u, u))))
-
-
-def _block_norm(Psi, col, dpn, order, b, q, best):
-    nf = q.shape[0]
-    stop = min((b + 1) * BLOCK, order.shape[0])
-    for k in range(b * BLOCK, stop):
-        i = order[k]
-        s = 0.0
-        for c in range(3):
-            row = Psi[dpn * i + c, col:col + nf]
-            u = 0.0
-            for j in range(nf):
-                u += row[j] * q[j]
-            s += u * u
-        s = math.sqrt(s)
-        if s > best:
-            best = s
-    return best
-
-
-def _bound(C, r, b, q, qn):
-    """Upper bound of |Phi_i q| over the nodes of a (super)block: |C_b q| + r_b |q| (C_b: the block's mean
-    of Phi_i (3 x nf, row-major), r_b >= max |Phi_i - C_b|_F)."""
-    nf = q.shape[0]
-    Cb = C[b]
-    s = 0.0
-    for c in range(3):
-        u = 0.0
-        for j in range(nf):
-            u += Cb[c * nf + j] * q[j]
-        s += u * u
-    return (math.sqrt(s) + r[b] * qn) * (1.0 + 1e-12)
-
-
-def max_node_norm_blocks(Psi, col, dpn, order, bc, br, sc, sr, q):
-    """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...),
-    exactly, without visiting every node: the algorithm of the C kernels' ffx_reframe_max_node_norm, here in
-    plain Python as its reference (tests; the numpy kernels use :func:`max_node_norm_numpy`).  Nodes in
-    ``order`` (a space-filling curve) form blocks of BLOCK nodes and superblocks of BLOCK blocks, each with
-    the mean C of its Phi_i and a radius r >= max |Phi_i - C|_F, so |C q| + r |q| bounds |Phi_i q| inside it.  Only (super)blocks whose bound
-    reaches the maximum found so far are searched: O(n_nodes / BLOCK^2) bounds plus a few blocks in
-    practice (mode shapes are smooth); all nodes in the worst case."""
-    nf = q.shape[0]
-    if nf == 0:
-        return 0.0
-    qn = math.sqrt(np.dot(q, q))
-    ns = sc.shape[0]
-    nb = bc.shape[0]
-    sb = np.empty(ns)
-    s0 = 0
-    for s in range(ns):
-        sb[s] = _bound(sc, sr, s, q, qn)
-        if sb[s] > sb[s0]:
-            s0 = s
-    b0 = s0 * BLOCK
-    best_bound = -1.0
-    for b in range(s0 * BLOCK, min((s0 + 1) * BLOCK, nb)):
-        x = _bound(bc, br, b, q, qn)
-        if x > best_bound:
-            best_bound = x
-            b0 = b
-    best = _block_norm(Psi, col, dpn, order, b0, q, 0.0)
-    for s in range(ns):
-        if sb[s] < best:
-            continue
-        for b in range(s * BLOCK, min((s + 1) * BLOCK, nb)):
-            if b != b0 and _bound(bc, br, b, q, qn) >= best:
-                best = _block_norm(Psi, col, dpn, order, b, q, best)
-    return best
-
-
-def _quaternion(R):
-    """(w, x, y, z), w >= 0, of the body -> global R (as flexfmu.reframe.integrator.quaternion_from_rotation)."""
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    k = 0
-    best = tr
-    for i in range(3):
-        if R[i, i] > best:
-            best = R[i, i]
-            k = i + 1
-    if k == 0:
-        w = 0.5 * math.sqrt(1.0 + tr)
-        x = (R[2, 1] - R[1, 2]) / (4 * w)
-        y = (R[0, 2] - R[2, 0]) / (4 * w)
-        z = (R[1, 0] - R[0, 1]) / (4 * w)
-    elif k == 1:
-        x = 0.5 * math.sqrt(1.0 + R[0, 0] - R[1, 1] - R[2, 2])
-        w = (R[2, 1] - R[1, 2]) / (4 * x)
-        y = (R[0, 1] + R[1, 0]) / (4 * x)
-        z = (R[0, 2] + R[2, 0]) / (4 * x)
-    elif k == 2:
-        y = 0.5 * math.sqrt(1.0 - R[0, 0] + R[1, 1] - R[2, 2])
-        w = (R[0, 2] - R[2, 0]) / (4 * y)
-        x = (R[0, 1] + R[1, 0]) / (4 * y)
-        z = (R[1, 2] + R[2, 1]) / (4 * y)
-    else:
-        z = 0.5 * math.sqrt(1.0 - R[0, 0] - R[1, 1] + R[2, 2])
-        w = (R[1, 0] - R[0, 1]) / (4 * z)
-        x = (R[0, 2] + R[2, 0]) / (4 * z)
-        y = (R[1, 2] + R[2, 1]) / (4 * z)
-    if w < 0.0:
-        w, x, y, z = -w, -x, -y, -z
-    n = math.sqrt(x * x + y * y + z * z)
-    if n < 1e-8:
-        scale = (2.0 / w) * (1.0 - (n / w) ** 2 / 3.0)
-    else:
-        scale = 2.0 * math.atan2(n, w) / n
-    px, py, pz = scale * x, scale * y, scale * z
-    th = math.sqrt(px * px + py * py + pz * pz)
-    out = np.empty(4)
-    out[0] = math.cos(0.5 * th)
-    s = 0.5 if th == 0.0 else math.sin(0.5 * th) / th
-    out[1] = s * px
-    out[2] = s * py
-    out[3] = s * pz
-    return out
 
 
 def output_size(nf: int, n_points: int) -> int:
     """Length of the outputs of one state (flexfmu.reframe.layout.output_layout)."""
-    from flexfmu.reframe.layout import output_layout
     return output_layout(nf, n_points).size
 
 
@@ -315,16 +97,11 @@ def __getattr__(name):
     base = name[:-len("_numpy")] if name.endswith("_numpy") else name
     if base not in _KERNELS:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    if base == "max_node_norm":
-        value = max_node_norm_numpy
-        if name == base and _use_native():
-            from flexfmu.native import reframe as native
-            value = native.max_node_norm
-    elif name == base and _use_native():
+    if name == base and _use_native():
         from flexfmu.native import reframe as native
         value = getattr(native, base)
     else:
         from flexfmu.reframe import kernels_numpy
-        value = getattr(kernels_numpy, base)
+        value = getattr(kernels_numpy, base + "_numpy" if base == "max_node_norm" else base)
     globals()[name] = value
     return value

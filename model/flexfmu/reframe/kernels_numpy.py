@@ -1,46 +1,142 @@
 """The numpy versions of the reframe kernels (:mod:`flexfmu.reframe.kernels`): the reference the C kernels
 (flexfmu/native/csrc/reframe_kernels.c) are checked against (tests/test_native_reframe_kernels.py), and the
 kernels themselves when the C library is not available or with FLEXFMU_NATIVE_KERNELS=0.  Import the kernels
-from flexfmu.reframe.kernels, which picks the version; the small scalar helpers are there too."""
+from flexfmu.reframe.kernels, which picks the version.
+
+The scalar helpers are here too (the C file has their twins: ffx_reframe_solve3, _bound, _block_norm,
+_max_node_norm), except the rotation formulas, which have one home, flexfmu.core.rotation (Rodrigues, the
+quaternion, the rotation-vector rate: twins ffx_reframe_rodrigues, _quaternion, _rate_coefficient), and the
+layouts, declared in flexfmu.reframe.layout (twin ffx_reframe_offsets).  This module imports neither
+flexfmu.reframe.kernels nor flexfmu.native: the dependency runs layout <- kernels_numpy <- kernels."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from flexfmu.reframe.layout import param_layout
-from flexfmu.reframe.kernels import (
-    N_RIGID,
-    NOT_COMPUTED,
-    _quaternion,
-    _rate_coefficient,
-    _rodrigues_into,
-    _solve3,
-    max_node_norm_numpy,
-)
+from flexfmu.core.rotation import quaternion_from_rotation as _quaternion
+from flexfmu.core.rotation import rodrigues as _rodrigues
+from flexfmu.core.rotation import rotvec_rate_unchecked as _rotvec_rate
+from flexfmu.core.structure import N_RIGID
+from flexfmu.core.vec3 import cross as _cross
+from flexfmu.reframe.layout import BLOCK, NOT_COMPUTED, param_layout
 
 
-def _cross(a, b):
-    r = np.empty(3)
-    r[0] = a[1] * b[2] - a[2] * b[1]
-    r[1] = a[2] * b[0] - a[0] * b[2]
-    r[2] = a[0] * b[1] - a[1] * b[0]
-    return r
+# --------------------------------------------------------------------------- scalar helpers
+def _solve3(S, r):
+    """S x = r for a 3x3 S (Gaussian elimination with partial pivoting)."""
+    A = S.copy()
+    b = r.copy()
+    for k in range(3):
+        p = k
+        for i in range(k + 1, 3):
+            if abs(A[i, k]) > abs(A[p, k]):
+                p = i
+        if p != k:
+            for j in range(3):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+        for i in range(k + 1, 3):
+            f = A[i, k] / A[k, k]
+            for j in range(k, 3):
+                A[i, j] -= f * A[k, j]
+            b[i] -= f * b[k]
+    x = np.empty(3)
+    for i in range(2, -1, -1):
+        s = b[i]
+        for j in range(i + 1, 3):
+            s -= A[i, j] * x[j]
+        x[i] = s / A[i, i]
+    return x
 
 
-def _rodrigues(phi):
-    """exp(skew(phi)) as a (3, 3) array (numpy kernels)."""
-    R = np.empty(9)
-    _rodrigues_into(phi, R)
-    return R.reshape(3, 3)
+# --------------------------------------------------------------------------- max elastic displacement
+def max_node_norm_numpy(Psi, col, dpn, order, bc, br, sc, sr, q):
+    """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...): all
+    nodes, vectorised (the numpy version of flexfmu.reframe.kernels.max_node_norm)."""
+    nf = q.shape[0]
+    if nf == 0:
+        return 0.0
+    n_nodes = order.shape[0]
+    rows = (dpn * np.arange(n_nodes)[:, None] + np.arange(3)).ravel()
+    u = np.dot(Psi[rows, col:col + nf], q).reshape(n_nodes, 3)
+    return float(np.max(np.sqrt(np.einsum("ic,ic->i", u, u))))
 
 
-def _rotvec_rate(phi, w):
-    th = math.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
-    pxw = _cross(phi, w)
-    return w + 0.5 * pxw + _rate_coefficient(th) * _cross(phi, pxw)
+def _block_norm(Psi, col, dpn, order, b, q, best):
+    nf = q.shape[0]
+    stop = min((b + 1) * BLOCK, order.shape[0])
+    for k in range(b * BLOCK, stop):
+        i = order[k]
+        s = 0.0
+        for c in range(3):
+            row = Psi[dpn * i + c, col:col + nf]
+            u = 0.0
+            for j in range(nf):
+                u += row[j] * q[j]
+            s += u * u
+        s = math.sqrt(s)
+        if s > best:
+            best = s
+    return best
 
 
+def _bound(C, r, b, q, qn):
+    """Upper bound of |Phi_i q| over the nodes of a (super)block: |C_b q| + r_b |q| (C_b: the block's mean
+    of Phi_i (3 x nf, row-major), r_b >= max |Phi_i - C_b|_F)."""
+    nf = q.shape[0]
+    Cb = C[b]
+    s = 0.0
+    for c in range(3):
+        u = 0.0
+        for j in range(nf):
+            u += Cb[c * nf + j] * q[j]
+        s += u * u
+    return (math.sqrt(s) + r[b] * qn) * (1.0 + 1e-12)
+
+
+def max_node_norm_blocks(Psi, col, dpn, order, bc, br, sc, sr, q):
+    """max over nodes i of |Phi_i q| (Phi_i: node i's 3 translational rows of Psi, columns col ...),
+    exactly, without visiting every node: the algorithm of the C kernels' ffx_reframe_max_node_norm, here in
+    plain Python as its reference (tests; the numpy kernels use :func:`max_node_norm_numpy`).  Nodes in
+    ``order`` (a space-filling curve) form blocks of BLOCK nodes and superblocks of BLOCK blocks, each with
+    the mean C of its Phi_i and a radius r >= max |Phi_i - C|_F, so |C q| + r |q| bounds |Phi_i q| inside it.  Only (super)blocks whose bound
+    reaches the maximum found so far are searched: O(n_nodes / BLOCK^2) bounds plus a few blocks in
+    practice (mode shapes are smooth); all nodes in the worst case."""
+    nf = q.shape[0]
+    if nf == 0:
+        return 0.0
+    qn = math.sqrt(np.dot(q, q))
+    ns = sc.shape[0]
+    nb = bc.shape[0]
+    sb = np.empty(ns)
+    s0 = 0
+    for s in range(ns):
+        sb[s] = _bound(sc, sr, s, q, qn)
+        if sb[s] > sb[s0]:
+            s0 = s
+    b0 = s0 * BLOCK
+    best_bound = -1.0
+    for b in range(s0 * BLOCK, min((s0 + 1) * BLOCK, nb)):
+        x = _bound(bc, br, b, q, qn)
+        if x > best_bound:
+            best_bound = x
+            b0 = b
+    best = _block_norm(Psi, col, dpn, order, b0, q, 0.0)
+    for s in range(ns):
+        if sb[s] < best:
+            continue
+        for b in range(s * BLOCK, min((s + 1) * BLOCK, nb)):
+            if b != b0 and _bound(bc, br, b, q, qn) >= best:
+                best = _block_norm(Psi, col, dpn, order, b, q, best)
+    return best
+
+
+# --------------------------------------------------------------------------- the kernels
 def _blocks(P, nf, q):
     """A(q), J(q), D(q) of the generalised mass matrix [[m I, A, 0], [A^T, J, D], [0, D^T, I]]."""
     lay = param_layout(nf)

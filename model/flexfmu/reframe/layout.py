@@ -10,22 +10,34 @@
   displacement (1), then per output point position, velocity, acceleration and their rigid parts
   (6 x 3).
 
-The parameter offsets are computed by the kernels' ``_offsets(nf)`` (flexfmu.reframe.kernels; the C kernels'
-twin ffx_reframe_offsets, flexfmu/native/csrc/reframe_kernels.h, is compared with it in
-tests/test_performance_equivalence.py); :func:`param_layout` names them.  The output positions are written
-by the output kernels; tests/test_performance_equivalence.py
-checks that they are where :func:`output_layout` says.
+The parameter offsets are computed here, by :func:`param_layout` (the C kernels' twin ffx_reframe_offsets,
+flexfmu/native/csrc/reframe_kernels.h, is compared with it in tests/test_native_reframe_kernels.py and
+tests/test_performance_equivalence.py).  The output positions are written by the output kernels;
+tests/test_performance_equivalence.py checks that they are where :func:`output_layout` says.  Also declared
+here: :data:`NOT_COMPUTED` (the skipped max-displacement search's output value); :data:`BLOCK` (the node blocks
+of that search) is the C contract's FFX_REFRAME_BLOCK as its ctypes bindings (flexfmu.native.reframe, a layer
+below) define it.
+
+The kernels (flexfmu.reframe.kernels, kernels_numpy) import this module, never the other way round.
 """
 from __future__ import annotations
 
 from functools import lru_cache
 from typing import NamedTuple
 
-__all__ = ["ParamLayout", "param_layout", "OutputLayout", "output_layout", "STATE"]
+# nodes per block and blocks per superblock of the max-displacement search (flexfmu.reframe.kernel_data
+# .max_displacement_blocks): FFX_REFRAME_BLOCK, one definition in the C kernels' bindings
+from flexfmu.native.reframe import BLOCK
+
+__all__ = ["ParamLayout", "param_layout", "OutputLayout", "output_layout", "STATE", "NOT_COMPUTED", "BLOCK"]
+
+#: the max elastic displacement's place in the outputs when its search was skipped (a norm is never < 0; the C
+#: kernels' twin FFX_REFRAME_NOT_COMPUTED)
+NOT_COMPUTED = -1.0
 
 
 class ParamLayout(NamedTuple):
-    """Start offsets of the blocks of ``P`` (``end``: its length), in the order of ``kernels._offsets``."""
+    """Start offsets of the blocks of ``P`` (``end``: its length), in the order of ffx_reframe_offsets."""
 
     J0: int
     A: int
@@ -42,11 +54,21 @@ class ParamLayout(NamedTuple):
 
 @lru_cache(maxsize=64)
 def param_layout(nf: int) -> ParamLayout:
-    """Offsets of ``P`` for nf flexible modes: the kernels' own ``_offsets`` (one definition; imported here on
-    first use, as flexfmu.reframe.kernels_numpy imports this module)."""
-    from flexfmu.reframe.kernels import _offsets
-
-    return ParamLayout(*(int(o) for o in _offsets(nf)))
+    """Offsets of ``P``'s blocks for nf flexible modes (J0, A, B, C, D, k, c, A6, A6inv, com, end), as
+    ffx_reframe_offsets: m (1), J0 (9), A_j (nf*9), B_j (nf*9), C_jk (nf*nf*9), D_j (nf*3*nf), k_F (nf),
+    c_F (nf), A6 (36), A6^-1 (36), centre of mass (3)."""
+    nf = int(nf)
+    J0 = 1
+    A = J0 + 9
+    B = A + nf * 9
+    C = B + nf * 9
+    D = C + nf * nf * 9
+    k = D + nf * 3 * nf
+    c = k + nf
+    A6 = c + nf
+    A6inv = A6 + 36
+    com = A6inv + 36
+    return ParamLayout(J0, A, B, C, D, k, c, A6, A6inv, com, com + 3)
 
 
 class _StateLayout(NamedTuple):

@@ -9,9 +9,9 @@ import numbers
 import numpy as np
 
 from flexfmu.errors import ParameterError
-from flexfmu.linalg.modal_basis import N_RIGID, ModalBasis
+from flexfmu.linalg.modal_basis import ModalBasis
 from flexfmu.linalg.modal_basis import modal_basis as _modal_basis
-from flexfmu.core.structure import Structure
+from flexfmu.core.structure import N_RIGID, Structure
 from flexfmu.reframe.loads import PointLoad, _finite_vec3, _History, _ResolvedLoad
 
 #: RK4 is stable for an undamped oscillator while dt * omega <= 2*sqrt(2) = 2.83; refuse above 2.8.

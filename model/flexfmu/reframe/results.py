@@ -2,24 +2,13 @@
 state, its flat form for the kernels, and the output records of one state and of a run."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from flexfmu.core.rotation import rotvec_from_matrix
 from flexfmu.reframe.layout import STATE
 
-__all__ = ["ReframeState", "NodalState", "ReframeResult", "Snapshot", "quaternion_from_rotation"]
-
-
-def quaternion_from_rotation(R) -> np.ndarray:
-    """Unit quaternion (w, x, y, z), w >= 0, of the body -> global rotation matrix R."""
-    phi = rotvec_from_matrix(np.asarray(R).T)          # rotvec_from_matrix takes global -> body
-    th = float(np.linalg.norm(phi))
-    w = math.cos(0.5 * th)
-    s = 0.5 * np.sinc(th / (2.0 * np.pi))               # sin(th/2)/th
-    return np.concatenate([[w], s * phi])
+__all__ = ["ReframeState", "NodalState", "ReframeResult", "Snapshot"]
 
 
 @dataclass

@@ -12,7 +12,6 @@ numpy on the full modal matrices and keeps its own data here.
 """
 from __future__ import annotations
 
-import math
 import re
 from types import MappingProxyType
 
@@ -20,29 +19,22 @@ import numpy as np
 
 from flexfmu.core.checks import shown
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.linalg.modal_basis import N_RIGID
+from flexfmu.core.structure import N_RIGID
 from flexfmu.core.rotation import (
     angular_acceleration,
     angular_velocity,
     reparametrize,
     rotvec_from_matrix,
-    rotvec_rate_coefficient,
 )
+from flexfmu.core.rotation import rodrigues as _rodrigues
+from flexfmu.core.rotation import rotvec_rate_unchecked as _rotvec_rate   # Eqs. (20)-(22), unchecked
 from flexfmu.core.vec3 import cross as _cross
-from flexfmu.core.vec3 import rodrigues as _rodrigues
 from flexfmu.core.vec3 import skew as _skew
 from flexfmu.reframe.results import ReframeState
 
 __all__ = ["Scheme", "ConsistentScheme", "ExponentialScheme", "PaperScheme", "SCHEMES", "register_scheme",
            "unregister_scheme", "scheme_names", "scheme_class", "make", "exponential_coefficients",
            "exponential_coefficients_scipy"]
-
-
-def _rotvec_rate(phi, w):
-    """Eqs. (20)-(22) as a vector (same as :func:`flexfmu.core.rotation.rotvec_rate`, without input checks)."""
-    th = math.sqrt(float(phi @ phi))
-    pxw = _cross(phi, w)
-    return w + 0.5 * pxw + rotvec_rate_coefficient(th) * _cross(phi, pxw)
 
 
 def exponential_coefficients(stiffness, damping, dt: float) -> np.ndarray:

@@ -26,7 +26,8 @@ import scipy.sparse.linalg as spla
 
 from flexfmu.errors import ParameterError
 from flexfmu.linalg.modal import solve_modes
-from flexfmu.linalg.modal_basis import N_RIGID, ModalBasis, modal_basis
+from flexfmu.core.structure import N_RIGID
+from flexfmu.linalg.modal_basis import ModalBasis, modal_basis
 from flexfmu.sizing.common import truncation_errors
 from flexfmu.sizing.solid import (MAX_AUTO_MODES, _select, kept_message, mode_search, residual_vectors,
                                   static_responses)

@@ -12,7 +12,8 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from flexfmu.errors import ParameterError
-from flexfmu.linalg.modal_basis import N_RIGID, ModalBasis, modal_basis
+from flexfmu.core.structure import N_RIGID
+from flexfmu.linalg.modal_basis import ModalBasis, modal_basis
 from flexfmu.sizing.common import SAFETY_FACTOR, truncation_errors
 
 MAX_AUTO_MODES = 200        # n_flexible_modes = -1 computes at most this many modes

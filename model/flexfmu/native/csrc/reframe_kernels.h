@@ -189,11 +189,11 @@ double ffx_reframe_max_node_norm(const double *Psi, int psi_cols, int col, int d
                                  int n_super, const double *q, int nf);
 
 /* Upper bound of |Phi_i q| over (super)block b: (|C_b q| + r_b qn) (1 + 1e-12), C: (n, 3 nf), r: (n,),
- * qn = |q|.  Python: kernels._bound. */
+ * qn = |q|.  Python: kernels_numpy._bound. */
 double ffx_reframe_bound(const double *C, const double *r, int b, const double *q, int nf, double qn);
 
 /* max(best, max over the nodes of block b of |Phi_i q|) (block b: order[b*BLOCK .. min((b+1)*BLOCK,
- * n_nodes)-1]).  Python: kernels._block_norm. */
+ * n_nodes)-1]).  Python: kernels_numpy._block_norm. */
 double ffx_reframe_block_norm(const double *Psi, int psi_cols, int col, int dpn, const int64_t *order, int n_nodes,
                               int b, const double *q, int nf, double best);
 
@@ -216,21 +216,21 @@ int ffx_reframe_exponential_coefficients(int nf, const double *kF, const double 
 /* ------------------------------------------------------------------------------------- small helpers */
 
 /* Start offsets of P's blocks for nf modes into off[FFX_REFRAME_N_OFFSETS] (J0, A, B, C, D, k, c, A6,
- * A6inv, com, end = FFX_REFRAME_PARAM_SIZE(nf)).  Python: kernels._offsets, layout.param_layout. */
+ * A6inv, com, end = FFX_REFRAME_PARAM_SIZE(nf)).  Python: layout.param_layout. */
 void ffx_reframe_offsets(int nf, int *off);
 
-/* R = exp(skew(phi)) (Rodrigues), row-major.  Python: kernels._rodrigues_into. */
+/* R = exp(skew(phi)) (Rodrigues), row-major.  Python: core.rotation.rodrigues_into. */
 void ffx_reframe_rodrigues(const double *phi, double *R);
 
 /* c(theta) of the rotation-vector rate phi' = w + phi x w / 2 + c(theta) phi x (phi x w).
- * Python: kernels._rate_coefficient. */
+ * Python: core.rotation.rotvec_rate_coefficient. */
 double ffx_reframe_rate_coefficient(double theta);
 
 /* x = S^{-1} r for a 3x3 row-major S (Gaussian elimination with partial pivoting).
- * Python: kernels._solve3. */
+ * Python: kernels_numpy._solve3. */
 void ffx_reframe_solve3(const double *S, const double *r, double *x);
 
-/* Unit quaternion (w, x, y, z), w >= 0, of the rotation matrix R (row-major).  Python: kernels._quaternion. */
+/* Unit quaternion (w, x, y, z), w >= 0, of the rotation matrix R (row-major).  Python: core.rotation.quaternion_from_rotation. */
 void ffx_reframe_quaternion(const double *R, double *quat);
 
 #ifdef __cplusplus
