@@ -68,7 +68,8 @@ def harvester_response(boundary: str, periods, damping: float) -> np.ndarray:
 
 def tuning(args) -> int:
     from flexfmu.cosim.masters import load_system
-    from flexfmu.wec.system import Case, _config, sweep, write_table
+    from flexfmu.wec.roles import roster
+    from flexfmu.wec.system import Case, sweep, write_table
 
     cases = [Case(b, "regular", args.wave_height, T) for b in BOUNDARIES for T in PERIODS]
     scheduler = None if args.serial else (args.scheduler or "local")
@@ -82,7 +83,7 @@ def tuning(args) -> int:
     for r in rows:
         print(f"{r['boundary']} T = {r['wave_period']:4.2f} s  P = {r['mean_power_W']:.4g} W  heave {r['heave_amplitude_m']:.4g} m  "
               f"pitch {math.degrees(r['pitch_amplitude_rad']):.3g} deg  residual {100 * r['energy_residual']:+.3f} %")
-    damping = _config(load_system(SYSTEM), "PTO").damping
+    damping = roster(load_system(SYSTEM)).one("pto").config.damping
 
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.8))

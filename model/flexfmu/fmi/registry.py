@@ -3,7 +3,8 @@ flexfmu.fmi.slave), the co-simulation masters run the entry's simulator in place
 (``--master library``), and docs/fmu.md lists the variables of the documented ones.
 
 A new FMU is a simulator module (a config dataclass, a simulator class, INPUT_NAMES, OUTPUT_NAMES,
-VARIABLE_INFO; see flexfmu.fmi.plumbing) and one entry here.
+VARIABLE_INFO; see flexfmu.fmi.plumbing) and one entry here.  A component of the wave-energy converter system
+also names, in ``role``, the module whose SYSTEM_ROLE says what it is in that system (flexfmu.wec.roles).
 """
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ class FmuSpec:
     description: str
     experiment: dict = field(default_factory=dict)    # DefaultExperiment attributes
     documented: bool = False
+    # the module whose SYSTEM_ROLE is the FMU's part in the wave-energy converter system (flexfmu.wec.roles);
+    # "" for an FMU that is no component of it.  Named as text: the wave converter lies above fmi.
+    role: str = ""
 
     def load(self):
         """The simulator module."""
@@ -67,21 +71,24 @@ _WEC = {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}
 FMUS: tuple[FmuSpec, ...] = (
     FmuSpec("FFRBeam", "flexfmu.ffr.simulator", "FFRBeamConfig", "FFRBeamSimulator",
             "FFR discontinuous-beam model (Koda et al. 2025) of a clamped bent rod on a moving base",
-            {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"}, documented=True),
+            {"startTime": "0", "stopTime": "1", "stepSize": "1e-4"}, documented=True, role="flexfmu.wec.harvester"),
     FmuSpec("ReframeBody", "flexfmu.reframe.simulator", "ReframeBodyConfig", "ReframeBodySimulator",
             "Free flexible body from a conventional linear structural model by the reframe integrator "
             "(Liu): large rigid motion plus vibration",
             {"startTime": "0", "stopTime": "1", "stepSize": "1e-3"}, documented=True),
     # The wave-energy-converter components (docs/wave_converter.md).
     FmuSpec("WaveExcitation", "flexfmu.wec.wave_excitation", "WaveExcitationConfig", "WaveExcitationSimulator",
-            "Froude-Krylov force and moment of a regular Airy wave or a JONSWAP sea on a floating box", _WEC),
+            "Froude-Krylov force and moment of a regular Airy wave or a JONSWAP sea on a floating box", _WEC,
+            role="flexfmu.wec.wave_excitation"),
     FmuSpec("Hydrostatics", "flexfmu.wec.hydrostatics", "HydrostaticsConfig", "HydrostaticsSimulator",
-            "Linear hydrostatic restoring and radiation damping of a floating box (minimal Cummins model)", _WEC),
+            "Linear hydrostatic restoring and radiation damping of a floating box (minimal Cummins model)", _WEC,
+            role="flexfmu.wec.hydrostatics"),
     FmuSpec("Platform", "flexfmu.wec.platform", "PlatformConfig", "PlatformSimulator",
             "Floating box as a rigid 6-DOF body (linear seakeeping, with added mass) carrying a payload at a "
-            "mount point", _WEC),
+            "mount point", _WEC, role="flexfmu.wec.platform"),
     FmuSpec("PTO", "flexfmu.wec.pto", "PTOConfig", "PTOSimulator",
-            "Linear damper/generator between a harvester point and its platform; harvested power", _WEC),
+            "Linear damper/generator between a harvester point and its platform; harvested power", _WEC,
+            role="flexfmu.wec.pto"),
 )
 BY_NAME = {spec.name: spec for spec in FMUS}
 

@@ -20,6 +20,9 @@ over each communication step (RadiationMemory).  Its infinite-frequency part A_i
 Platform's (hydrodynamics = "bem" there too).  The memory state is part of get_state/set_state; the
 zeta_* parameters are not used.  The memory force depends on the state only, so F still follows xi
 directly but xi_dot only through the state.
+
+In the wave-energy converter system (SYSTEM_ROLE, flexfmu.wec.roles) it accounts for the hydrostatic potential
+energy and the radiated energy (bem: the signed work of the memory force) of the motion at its inputs.
 """
 from __future__ import annotations
 
@@ -36,6 +39,7 @@ from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, MemorylessSimulato
                                     box_parameters,
                                     check_config, check_finite_build, check_hydrodynamics, check_state_config,
                                     check_step, vector_info)
+from flexfmu.wec.roles import DISSIPATED, POTENTIAL, Role, Term, change, integral
 from flexfmu.wec.wave import BoxParameters, FloatingBox
 
 INPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"rot_{a}" for a in AXES)
@@ -246,3 +250,56 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     "radiation_power": ("", "power radiated (dissipated) by the radiation damping, xi_dot^T B xi_dot, W (bem: "
                             "xi_dot^T F_mem, the memory force's power, instantaneous, of either sign)"),
 }
+
+
+#: the energy-balance term of the radiation memory (hydrodynamics = bem)
+RADIATION_MEMORY_TERM = "radiation memory: radiated + held (signed work)"
+
+
+class HydrostaticsRole(Role):
+    """Hydrostatic potential energy 1/2 xi^T C xi and the radiated energy, of the motion at its inputs.
+
+    With hydrodynamics = bem: the database's stiffness C, and in place of the damping the work of the radiation
+    memory force, the integral of its signed power (the radiation_power output, xi_dot^T F_mem).  That work is the
+    energy that left the body through the memory: what was radiated away plus what the memory state still holds
+    and returns later.  The balance closes with it over any interval; only its split into radiated and held energy
+    is not defined by the fitted state (it has no unique storage function), and over whole periods in steady state
+    the held part does not change, so there the term is the radiated energy."""
+
+    kind = "hydrostatics"
+
+    def _energies(self, m, r):
+        """(potential energy, radiated power, memory?) at the communication points."""
+        xi = np.hstack([r.input_vec(m.name, "pos_{}"), r.input_vec(m.name, "rot_{}")])
+        xi_dot = np.hstack([r.input_vec(m.name, "vel_{}"), r.input_vec(m.name, "omega_{}")])
+        memory = m.config.hydrodynamics == "bem"
+        if memory:
+            C = bem_model(m.config)[0]
+            # signed: the memory returns part of the energy it took; the recorded output is the power of the
+            # memory force the component held at each communication point
+            rad_power = np.asarray(r.col(m.name, "radiation_power"), float)
+        else:
+            C, B = coefficients(m.config)
+            rad_power = np.einsum("ij,jk,ik->i", xi_dot, B, xi_dot)
+        return 0.5 * np.einsum("ij,jk,ik->i", xi, C, xi), rad_power, memory
+
+    def energy(self, m, r):
+        pe, rad_power, memory = r.memo((m.name, "energies"), lambda: self._energies(m, r))
+        return [Term(POTENTIAL, "potential: hydrostatic" + m.suffix, change(pe)),
+                Term(DISSIPATED, (RADIATION_MEMORY_TERM if memory else "dissipated: radiation damping") + m.suffix,
+                     integral(rad_power, r.t))]
+
+    def diagnostics(self, m, r):
+        # the work the held force did on the body against the energy of the motion: the coupling error of the
+        # held force (first order in the step)
+        fed = r.work_on_target(m.name, "F_x")
+        if fed is None:
+            return {}
+        _, inp, work = fed
+        pe, rad_power, _ = r.memo((m.name, "energies"), lambda: self._energies(m, r))
+        label = f"hydro interface: work_{inp.split('_', 1)[0]} + dPE + radiated{m.suffix}"
+        return {label: change(work) + change(pe) + integral(rad_power, r.t)}
+
+
+#: what Hydrostatics is in the wave-energy converter system (its registry row names this module)
+SYSTEM_ROLE = HydrostaticsRole()

@@ -16,9 +16,13 @@ a_m = xi_ddot_t + alpha x r_m, omega, alpha (linear kinematics).
 Inputs are held over each step, for which the step is exact (constant acceleration), so the work
 each input group does on the platform is exact too (the work_* outputs): the platform's own energy
 balance d(kinetic_energy) = sum of work_* holds to rounding.
+
+In the wave-energy converter system (SYSTEM_ROLE, flexfmu.wec.roles) the platform accounts for the work each
+input group does on it (what the wave's work in the audit is), its kinetic energy, and its motion.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
@@ -31,6 +35,7 @@ from flexfmu.wec.components import (AXES, HYDRODYNAMICS_INFO, bem_added_mass_inf
                                     check_config, check_finite_build, check_hydrodynamics, check_inputs,
                                     check_state_config, checked_outputs, check_step, vector_info)
 from flexfmu.core.vec3 import cross as _cross
+from flexfmu.wec.roles import KINETIC, Panel, Role, Term, amplitude, change, summary_line
 from flexfmu.wec.wave import BoxParameters
 
 GROUPS = ("wave", "hydro", "payload", "pto")
@@ -207,3 +212,41 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **{f"work_{g}": ("J", f"work done on the platform by the {_GROUP_TEXT[g][0]} inputs since t = 0 (exact for "
                           "inputs held over each step)") for g in GROUPS},
 }
+
+
+class PlatformRole(Role):
+    """The floating body: the work done on it by each input group, its kinetic energy, its motion."""
+
+    kind = "platform"
+
+    def input_work(self, m, r, input_name):
+        group = input_name.split("_", 1)[0]
+        return r.col(m.name, f"work_{group}") if input_name in INPUT_NAMES else None
+
+    def energy(self, m, r):
+        return [Term(KINETIC, "kinetic: platform incl. added mass" + m.suffix, change(r.col(m.name, "kinetic_energy")))]
+
+    def diagnostics(self, m, r):
+        # exact for held inputs: what is left is rounding
+        ke, work = r.col(m.name, "kinetic_energy"), [r.col(m.name, f"work_{g}") for g in GROUPS]
+        return {"platform: d(kinetic) - sum of work_*" + m.suffix: change(ke) - sum(change(w) for w in work)}
+
+    def summary(self, m, r, sel):
+        amp = lambda v: amplitude(r.col(m.name, v), sel)   # noqa: E731
+        return [summary_line(f"platform{m.suffix} surge, sway, heave",
+                             f"{amp('pos_x'):.4g}, {amp('pos_y'):.4g}, {amp('pos_z'):.4g} m"),
+                summary_line(f"platform{m.suffix} roll, pitch, yaw", f"{math.degrees(amp('rot_x')):.4g}, "
+                             f"{math.degrees(amp('rot_y')):.4g}, {math.degrees(amp('rot_z')):.4g} deg")]
+
+    def panels(self, m, r):
+        c = lambda v: r.col(m.name, v)   # noqa: E731
+        return [Panel("translation", "platform translation", "m",
+                      [(c(f"pos_{a}"), {"label": label + m.suffix}) for a, label in (("z", "heave"), ("x", "surge"),
+                                                                                     ("y", "sway"))]),
+                Panel("rotation", "platform rotation", "deg",
+                      [(np.degrees(c(f"rot_{a}")), {"label": label + m.suffix})
+                       for a, label in (("x", "roll"), ("y", "pitch"), ("z", "yaw"))])]
+
+
+#: what the platform is in the wave-energy converter system (its registry row names this module)
+SYSTEM_ROLE = PlatformRole()

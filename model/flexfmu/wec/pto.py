@@ -7,6 +7,9 @@ with load_s at the point) and its stator pushes the platform back with -F at the
 position r_a (about the harvester frame's origin, the mount point; to Platform's pto inputs).  The
 harvested (electrical) power is c |v|^2.  ``axis`` = 0 0 0 makes the damper isotropic; a direction
 makes it act along that axis only (F = -c (v.n) n, power c (v.n)^2).  Memoryless.
+
+In the wave-energy converter system (SYSTEM_ROLE, flexfmu.wec.roles) the PTO is what harvests: c |v|^2 of the
+velocity at its inputs.
 """
 from __future__ import annotations
 
@@ -17,6 +20,7 @@ import numpy as np
 
 from flexfmu.errors import require
 from flexfmu.wec.components import AXES, MemorylessSimulator, check_config, vector_info
+from flexfmu.wec.roles import HARVESTED, Panel, Role, Term, integral, mean_power
 
 INPUT_NAMES = tuple(f"v_{a}" for a in AXES)
 OUTPUT_NAMES = (tuple(f"F_{a}" for a in AXES) + tuple(f"stator_F_{a}" for a in AXES)
@@ -87,3 +91,43 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **vector_info("stator_M", "N.m", "stator moment on the platform about the harvester frame origin"),
     "power": ("", "harvested power c |v|^2, W"),
 }
+
+
+class PTORole(Role):
+    """The harvester: power c |v|^2 (c (v.n)^2 along an axis) of the recorded velocity that feeds its inputs."""
+
+    kind = "pto"
+
+    def power(self, m, r):
+        cfg = m.config
+        v = r.input_vec(m.name, "v_{}")
+        axis = np.array([cfg.axis_x, cfg.axis_y, cfg.axis_z])
+        if np.linalg.norm(axis) > 0:
+            axis = axis / np.linalg.norm(axis)
+            return cfg.damping * (v @ axis) ** 2
+        return cfg.damping * np.einsum("ij,ij->i", v, v)
+
+    def energy(self, m, r):
+        return [Term(HARVESTED, "harvested: PTO" + m.suffix, integral(self.power(m, r), r.t))]
+
+    def diagnostics(self, m, r):
+        # the work the held damper force actually did on the point it pushes (force of sample n over step n),
+        # when the velocity it reads comes with the point's displacement (FFRBeam's sensor_v, sensor_u)
+        src = m.roster.source(m.name, "v_x")
+        if src is None or not src[1].startswith("sensor_v_"):
+            return {}
+        F, u = r.vec(m.name, "F_{}"), r.vec(src[0], "sensor_u_{}")
+        return {"PTO: energy the held damper force took from the rod" + m.suffix:
+                -float(np.sum(np.einsum("ij,ij->i", F[:-1], np.diff(u, axis=0))))}
+
+    def panels(self, m, r):
+        t, p = r.t, self.power(m, r)
+        mean = mean_power(p, t, t[t >= t[0] + 0.5 * (t[-1] - t[0])][0])
+        return [Panel("power" + m.suffix, f"harvested power c|v|^2 (c = {m.config.damping:g} N s/m){m.suffix}", "nW",
+                      [(1e9 * p, {"lw": 0.8, "label": "instantaneous"}),
+                       (1e9 * mean, {"color": "k", "ls": "--", "lw": 1,
+                                     "label": f"mean over the second half: {1e9 * mean:.3g} nW"})])]
+
+
+#: what the PTO is in the wave-energy converter system (its registry row names this module)
+SYSTEM_ROLE = PTORole()

@@ -10,6 +10,9 @@ database says.
 
 No inputs: the load is a function of time, evaluated at each communication point.  The start is
 ramped (``ramp_time``) so that the load and its rate start from zero.  See flexfmu.wec.wave.
+
+In the wave-energy converter system (SYSTEM_ROLE, flexfmu.wec.roles) the wave brings the energy in: the work its
+force does on the body it loads, as that body accounts for it.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ import numpy as np
 from flexfmu.errors import require
 from flexfmu.wec.components import (HYDRODYNAMICS_INFO, MemorylessSimulator, bem_database, bem_excitation,
                                     check_config, check_finite_build, check_hydrodynamics, vector_info)
+from flexfmu.wec.roles import WORK_IN, Panel, Role, Term, change, integral
 from flexfmu.wec.wave import (RHO_SEA, G, BoxParameters, FloatingBox, froude_krylov_transfer, jonswap_sea, ramp,
                               regular_wave)
 
@@ -142,3 +146,33 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
                               "diffraction)", "global"),
     "eta": ("m", "undisturbed surface elevation at the waterplane centre"),
 }
+
+
+class WaveRole(Role):
+    """The energy brought in: the work the wave force did on the body it loads in the co-simulation (the force held
+    over each step: that body's own account, e.g. the Platform's work_wave, exact); the diagnostics give the
+    trapezoid of the continuous force's power over the samples too, which differs by the excitation's sampling."""
+
+    kind = "wave"
+
+    def energy(self, m, r):
+        fed = r.work_on_target(m.name, "F_x")
+        return [] if fed is None else [Term(WORK_IN, "work done by the wave force" + m.suffix, change(fed[2]))]
+
+    def diagnostics(self, m, r):
+        fed = r.work_on_target(m.name, "F_x")
+        if fed is None:
+            return {}
+        body = fed[0].name
+        f_wave = np.hstack([r.vec(m.name, "F_{}"), r.vec(m.name, "M_{}")])
+        xi_dot = np.hstack([r.vec(body, "vel_{}"), r.vec(body, "omega_{}")])
+        return {"wave work of the continuous force (trapezoid over the samples)" + m.suffix:
+                integral(np.einsum("ij,ij->i", f_wave, xi_dot), r.t)}
+
+    def panels(self, m, r):
+        return [Panel("translation", "platform translation", "m",
+                      [(r.col(m.name, "eta"), {"color": "k", "lw": 0.8, "label": "wave elevation at O" + m.suffix})])]
+
+
+#: what the wave is in the wave-energy converter system (its registry row names this module)
+SYSTEM_ROLE = WaveRole()

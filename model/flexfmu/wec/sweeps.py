@@ -1,0 +1,134 @@
+"""The machinery of the wave-energy converter's sweeps that does not depend on the system (flexfmu.wec.system
+runs the cases): tasks run serially or on Dask, their rows written as a table, and the power matrix's table and
+chart in the IEC TS 62600-100 layout.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from flexfmu.core.progress import progress_bar
+from flexfmu.errors import ParameterError
+
+
+def run_tasks(task, arguments, scheduler: str | None = None, n_workers: int = 2, progress: bool = False) -> list:
+    """task(*args) for each args of ``arguments`` (one co-simulation per task), the results in their order.
+    scheduler None: serially in this process (Dask not needed); "local": a dask.distributed LocalCluster with
+    n_workers single-threaded worker processes; otherwise the address of a running Dask scheduler
+    (e.g. "tcp://10.0.0.5:8786")."""
+    if scheduler is None:
+        rows = []
+        with progress_bar(len(arguments), "sweep", enabled=progress, unit="co-simulation") as bar:
+            for i, args in enumerate(arguments):
+                rows.append(task(*args))
+                bar.update_to(i + 1)
+        return rows
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise ParameterError("scheduler", "dask.distributed is not installed",
+                             "none (serial), or install the 'cluster' extra: pip install flexfmu[cluster]") from None
+    cluster = None
+    if scheduler == "local":
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=":0")
+        client = Client(cluster)
+    else:
+        client = Client(scheduler)
+    try:
+        futures = [client.submit(task, *args, pure=False) for args in arguments]
+        if progress:
+            with progress_bar(len(arguments), "sweep", unit="co-simulation") as bar:
+                for i, _ in enumerate(as_completed(futures)):
+                    bar.update_to(i + 1)
+        return client.gather(futures)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def write_table(rows: list[dict], path) -> Path:
+    """The rows (dicts) as CSV, one column per key in the order they first appear."""
+    import csv
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        names = list(dict.fromkeys(k for r in rows for k in r))    # an error row has other columns
+        w = csv.DictWriter(f, fieldnames=names, restval="")
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+#: the usual limiting steepness of a sea state, 2 pi Hs / (g Tp^2) (DNV-RP-C205): steeper cells are
+#: not computed and stay empty in the matrix
+MAX_STEEPNESS = 1 / 15
+
+
+@dataclass
+class PowerMatrix:
+    """Mean harvested power (W) over irregular (JONSWAP) seas: ``power[i, j]`` for significant wave
+    height ``heights[i]`` and peak period ``periods[j]``, the mean over the seeds; NaN where not
+    computed (steeper than max_steepness, or every seed failed).  ``rows`` is one row per co-simulation."""
+
+    heights: np.ndarray
+    periods: np.ndarray
+    power: np.ndarray
+    rows: list
+    boundary: str
+    t_end: float
+    seeds: tuple
+    wall_s: float = 0.0
+
+    def write_csv(self, path) -> Path:
+        """IEC TS 62600-100 layout: rows Hs (m), columns Tp (s), mean power in W, empty where not computed."""
+        import csv
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(["Hs_m \\ Tp_s"] + [repr(float(t)) for t in self.periods])
+            for hs, row in zip(self.heights, self.power):
+                w.writerow([repr(float(hs))] + ["" if not np.isfinite(p) else repr(float(p)) for p in row])
+        return path
+
+    def plot(self, path) -> Path:
+        """The matrix as a heat map in the table's layout (Hs down, Tp across; log colour scale), the
+        value of each computed cell written in it, empty cells blank."""
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        from matplotlib.colors import LogNorm
+
+        nh, nt = self.power.shape
+        fig, ax = plt.subplots(figsize=(max(5.0, 2.4 + 1.1 * nt), max(3.2, 1.8 + 0.6 * nh)))
+        data = np.ma.masked_invalid(np.where(self.power > 0, self.power, np.nan))
+        norm = LogNorm(vmin=data.min(), vmax=data.max()) if data.count() and data.min() < data.max() else None
+        im = ax.imshow(data, cmap="viridis", norm=norm, aspect="auto")
+        for i in range(nh):
+            for j in range(nt):
+                p = self.power[i, j]
+                if np.isfinite(p):
+                    light = norm is not None and norm(p) < 0.5
+                    ax.text(j, i, f"{p:.2g}", ha="center", va="center", fontsize=8,
+                            color="white" if light else "black")
+        ax.set_xticks(range(nt), [f"{t:g}" for t in self.periods])
+        ax.set_yticks(range(nh), [f"{h:g}" for h in self.heights])
+        ax.set_xlabel("peak period Tp (s)")
+        ax.set_ylabel("significant wave height Hs (m)")
+        ax.set_xticks(np.arange(nt + 1) - 0.5, minor=True)
+        ax.set_yticks(np.arange(nh + 1) - 0.5, minor=True)
+        ax.grid(which="minor", color="0.7", lw=0.5)
+        ax.tick_params(which="minor", length=0)
+        if data.count():
+            fig.colorbar(im, ax=ax, label="mean harvested power (W)")
+        ax.set_title(f"mean harvested power (W), harvester {self.boundary}\nJONSWAP, mean of {len(self.seeds)} "
+                     f"seeds, {self.t_end:g} s runs; empty: not computed", fontsize=9)
+        fig.tight_layout()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=120)
+        plt.close(fig)
+        return path
