@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from error_bounds import U, gamma
 
-from flexfmu import cli
+from flexfmu.cli import reframe as cli          # PROGRESS_AFTER_S lives with the reframe command
 from flexfmu.cli import main
 from flexfmu.linalg.modal_basis import modal_basis
 from flexfmu.reframe.models import load_model

@@ -122,7 +122,7 @@ def test_default_is_exact_and_bad_options_are_refused():
 
 
 def test_spinup_driver_refuses_an_rk4_step_beyond_the_limit():
-    from flexfmu.studies import spinup
+    from flexfmu.studies import spinup_models as spinup
 
     with pytest.raises(ParameterError, match="dt"):
         spinup.run_ffr(t_end=0.5, dt=0.05, geometric_stiffening=True, integrator="rk4")   # limit ~0.013 s

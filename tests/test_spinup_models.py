@@ -31,7 +31,7 @@ from flexfmu.ffr.dynamics import BaseMotion, FFRBeamDynamics
 from flexfmu.ffr.geometric_stiffness import inertial_geometric_stiffness, local_geometric_stiffness
 from flexfmu.linalg.modal import solve_modes
 from flexfmu.ffr.scene import scene_from_dict
-from flexfmu.studies import spinup
+from flexfmu.studies import spinup_models as spinup
 
 REFERENCE = spinup.REFERENCE
 L, EI, RHO_A = 10.0, 1.4e4, 1.2

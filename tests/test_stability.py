@@ -154,7 +154,7 @@ def test_large_rotation_fixed_frame_model_stretches_reframe_holds(rod):
 # --------------------------------------------------------------------------- 3. co-simulation coupling
 def _study():
     """flexfmu.studies.stability, which draws the charts from the same system and predictions."""
-    from flexfmu.studies import stability
+    from flexfmu.studies import stability_cosim as stability
     return stability
 
 

@@ -1,0 +1,55 @@
+"""`flexfmu build`: the FMUs of flexfmu.fmi.registry, or one native FMU of a registry entry."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from flexfmu.errors import ParameterError
+
+
+def _settings(pairs: list) -> dict:
+    """--set NAME=VALUE (repeatable; a later one wins) -> {name: text}."""
+    out = {}
+    for text in pairs:
+        name, eq, value = text.partition("=")
+        if not eq or not name.strip():
+            raise ParameterError("set", f"got {text!r}", "NAME=VALUE, e.g. --set boundary=XFX")
+        out[name.strip()] = value
+    return out
+
+
+def _build(args: argparse.Namespace) -> int:
+    """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout; with --runtime
+    native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
+    out = args.out if args.out else Path("dist")
+    if args.runtime == "native":
+        from flexfmu.fmi.native import build_registry_fmu
+        target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name)
+        print(f"built {target} (native runtime; fmpy validate: no problems)")
+        return 0
+    for option in ("fmu", "name"):
+        if getattr(args, option) is not None:
+            raise ParameterError(option, "is an option of --runtime native", "--runtime native --" + option)
+    if args.set:
+        raise ParameterError("set", "is an option of --runtime native (a Python FMU takes its parameters when "
+                                    "instantiated)", "--runtime native --set NAME=VALUE")
+    from flexfmu.fmi.build import build
+    build(out)
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Add `flexfmu build` to ``sub``, the sub-commands of build_parser."""
+    build = sub.add_parser("build", help="build the FMUs of flexfmu.fmi.registry into dist/")
+    build.add_argument("--out", type=Path, default=None, help="output folder (default: ./dist)")
+    build.add_argument("--runtime", choices=("python", "native"), default="python",
+                       help="python (default): every FMU of the registry, running flexfmu in the host's Python; "
+                            "native: one C-only FMU (no Python) of --fmu, its model fixed by --set at build "
+                            "(docs/fmu.md, 'Native runtime')")
+    build.add_argument("--fmu", default=None, metavar="NAME",
+                       help="native: the registry FMU to build: FFRBeam (default) or ReframeBody (scheme exponential)")
+    build.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                       help="native: a parameter's value, fixed at build (repeatable; e.g. --set boundary=XFX)")
+    build.add_argument("--name", default=None, metavar="ID",
+                       help="native: the model identifier and file stem (default: the FMU's name)")
+    build.set_defaults(func=_build)

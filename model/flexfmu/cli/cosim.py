@@ -1,0 +1,103 @@
+"""`flexfmu cosim`: a system of FMUs from an OspSystemStructure.xml or an SSP with one of the masters."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from flexfmu.errors import FlexfmuError, ParameterError
+
+
+def _cosim(args: argparse.Namespace) -> int:
+    """Run a system of FMUs from an OspSystemStructure.xml or an SSP (.ssp) with one of the masters."""
+    from flexfmu.cosim import masters as cosim
+    from flexfmu.wec import system as wec
+
+    system = cosim.load_system(args.system_file, fmu_dir=args.fmu_dir)
+    if args.set:
+        system = cosim.with_assignments(system, args.set)
+    h = system.base_step if args.step is None else args.step
+    scheme = args.scheme or ("jacobi" if args.master in ("libcosim", "ecos") else "gauss-seidel")
+    if args.master in ("libcosim", "ecos") and scheme != "jacobi":
+        raise ParameterError("scheme", f"{scheme} with --master {args.master}",
+                             f"jacobi ({args.master}'s fixed-step algorithm)")
+    if args.every < 1:
+        raise ParameterError("every", f"{args.every}", "integer >= 1")
+    if not (math.isfinite(h) and h > 0):
+        raise ParameterError("step", f"{h!r}", "finite step > 0 (s)")
+    if not args.no_stability_check:
+        try:
+            check = cosim.stability_check(system, h, scheme)
+        except FlexfmuError as exc:
+            print(f"flexfmu cosim: note: no coupling-stability check ({exc})", file=sys.stderr)
+        else:
+            if not check["stable"]:
+                print(f"flexfmu cosim: warning: step {h:g} s is outside the coupling-stability limit of this system "
+                      f"({scheme}): the linearised coupled step is unstable at {check['first_unstable']:.3g} s "
+                      f"(spectral radius at {h:g} s: {check['spectral_radius']:.6f}); expect growing oscillation "
+                      "or divergence - use a smaller --step (docs/wave_converter.md)", file=sys.stderr, flush=True)
+    if args.master == "libcosim":
+        result = cosim.run_libcosim(system, args.t_end, h, progress=True)
+    elif args.master == "ecos":
+        result = cosim.run_ecos(system, args.t_end, h, progress=True)
+    else:
+        backend = "library" if args.master == "library" else "fmu"
+        result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True)
+    print(f"{system.path}: {len(system.simulators)} simulators, {len(system.connections)} connections; "
+          f"master {result.master}, step {h:g} s, t = {result.t[0]:g} .. {result.t[-1]:g} s")
+    if wec.is_wec(system):
+        print(wec.summary(result, system))
+        balance = wec.energy_balance(result, system)
+        print("energy balance over the run:")
+        print(balance.table())
+    if args.out is not None:
+        if args.every > 1:
+            keep = slice(None, None, args.every)
+            result = cosim.CosimResult(result.t[keep], {k: v[keep] for k, v in result.columns.items()},
+                                       result.step, result.scheme, result.master)
+        result.write_csv(args.out)
+        print(f"wrote {args.out} ({result.t.size} rows x {len(result.columns) + 1} columns)")
+    if args.plot is not None:
+        if not wec.is_wec(system):
+            raise ParameterError("plot", "the system is not the wave-energy converter", "a system with WaveExcitation, "
+                                 "Platform, Hydrostatics, FFRBeam and PTO")
+        print(f"wrote {wec.plot_result(result, system, args.plot)}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Add `flexfmu cosim` to ``sub``, the sub-commands of build_parser."""
+    cosim_p = sub.add_parser(
+        "cosim", help="co-simulate a system of FMUs described by an OspSystemStructure.xml or an SSP (.ssp)",
+        description="Co-simulate a system of FMUs (OSP system structure file, or SSP 1.0) with a fixed communication "
+                    "step: our fmpy master (Gauss-Seidel or Jacobi), libcosim or ecos (Jacobi), or the flexfmu library "
+                    "models the FMUs wrap. Warns when the step is outside the system's coupling-stability limit. "
+                    "For the "
+                    "wave-energy converter (examples/wave_converter/) also prints motion, harvested power and the "
+                    "energy balance.")
+    cosim_p.add_argument("system_file", metavar="SYSTEM_FILE", type=Path,
+                         help="OspSystemStructure.xml, or an SSP: .ssp archive (FMUs in resources/) or .ssd")
+    cosim_p.add_argument("--set", action="append", default=[], metavar="INSTANCE.VARIABLE=VALUE",
+                         help="change a start value (repeatable), e.g. wave.wave_height=0.1; an unknown instance "
+                              "or variable is an error that lists the allowed ones")
+    cosim_p.add_argument("--t-end", type=float, required=True, metavar="T", help="end time, s")
+    cosim_p.add_argument("--step", type=float, default=None, metavar="H",
+                         help="communication step, s (default: the file's BaseStepSize)")
+    cosim_p.add_argument("--out", type=Path, default=None, metavar="CSV",
+                         help="write every output of every simulator as CSV (columns instance.variable)")
+    cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point")
+    cosim_p.add_argument("--master", choices=("fmpy", "libcosim", "ecos", "library"), default="fmpy",
+                         help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; ecos: the ecos "
+                              "engine (ecospy), given the system as SSP; library: the flexfmu models the FMUs wrap, "
+                              "without FMI")
+    cosim_p.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default=None,
+                         help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim, "
+                              "ecos: jacobi)")
+    cosim_p.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
+                         help="take the FMUs from DIR instead of the file's sources (same file names)")
+    cosim_p.add_argument("--plot", type=Path, default=None, metavar="PNG",
+                         help="wave-energy converter: draw motion and harvested power")
+    cosim_p.add_argument("--no-stability-check", action="store_true",
+                         help="skip the coupling-stability check (a few seconds for the wave-energy converter)")
+    cosim_p.set_defaults(func=_cosim)
