@@ -34,7 +34,7 @@ def run_reframe(integ, t_end, dt, load, node, out_period, omega0=(0.0, 0.0, 0.0)
 
 def run_baseline(baseline, t_end, dt, load, node, out_period, omega0=(0.0, 0.0, 0.0)):
     """The same with the fixed-frame linear baseline (its elastic part Phi q_F, linearised about the start)."""
-    from flexfmu.linalg.modal_basis import N_RIGID
+    from flexfmu.core.structure import N_RIGID
     every = int(round(out_period / dt))
     r = baseline.run(t_end, dt, load, omega0=omega0, every=every)
     return body_deflection(baseline, r.eta[:, N_RIGID:baseline.data.n_modes], node)
