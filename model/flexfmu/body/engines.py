@@ -1,7 +1,7 @@
 """The two engines behind flexfmu.body.simulator.FlexBodySimulator: a free body (reframe kernels,
 flexfmu.body.free) and a clamped one (exact zero-order hold, flexfmu.body.clamped_dynamics).  Each holds the
-state and the held inputs, splits a communication step into internal steps (counted before stepping) and gives
-the outputs in the order of flexfmu.body.simulator.output_names."""
+state and the held inputs, splits a communication step into internal steps (counted before stepping, by
+flexfmu.native.step_policy) and gives the outputs in the order of flexfmu.body.simulator.output_names."""
 from __future__ import annotations
 
 import dataclasses
@@ -12,8 +12,9 @@ import numpy as np
 from flexfmu.body.clamped_dynamics import MAP_MEMO_SIZE, ClampedDynamics, HeldMaps
 from flexfmu.body.free import FreeDynamics
 from flexfmu.core.cache import BoundedCache
-from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit, round_down
-from flexfmu.errors import NonFiniteError, ParameterError, StepRejected
+from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit
+from flexfmu.errors import NonFiniteError, ParameterError
+from flexfmu.native import step_policy
 from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.modeldata import RK4_STABILITY_LIMIT
 
@@ -21,17 +22,10 @@ AUTO_STEP_FRACTION = 0.9           # of the RK4 stability limit, for internal_st
 _OMEGA, _ALPHA = output_layout(0, 0).omega, output_layout(0, 0).alpha     # their places do not depend on nf
 
 
-def too_many_steps(cap: int, needed: float, step_size: float, h_ok: float, cause: str) -> Exception:
-    """StepRejected when a communication step of at least MIN_COMMUNICATION_STEP would fit the cap (h_ok: the
-    largest that does), else ParameterError naming ``cause``."""
-    count = f"{math.ceil(needed)}" if math.isfinite(needed) and needed < 1e15 else f"{needed:.3g}"
-    if h_ok >= MIN_COMMUNICATION_STEP:
-        return StepRejected("max_internal_steps", f"needs {count} internal steps for this communication step of "
-                            f"{step_size:g} s (cap {cap}); take a smaller communication step (<= "
-                            f"{round_down(h_ok):.4g} s) or raise max_internal_steps")
-    return ParameterError(cause, f"even a {MIN_COMMUNICATION_STEP:g} s communication step needs more than "
-                          f"max_internal_steps = {cap} internal steps",
-                          "a smaller value, or a larger max_internal_steps")
+#: what a refusal allows when not even a MIN_COMMUNICATION_STEP step fits the cap (flexfmu.native.step_policy);
+#: it names internal_step, or for the rotation count of a free body the held input behind it
+_ALLOWED = "a smaller value, or a larger max_internal_steps"
+_INTERNAL_STEP = step_policy.Cause("internal_step", _ALLOWED)
 
 
 class FreeEngine:
@@ -87,19 +81,19 @@ class FreeEngine:
                 raise NonFiniteError(self.culprit() or "state", "the angular velocity or acceleration overflows "
                                      "(not finite)")
             ratio = self._rotation_count(h, w, a)
-            if not ratio <= self.cap:
+            n = step_policy.step_count(ratio, step_policy.GUARD, self.cap)       # capped as it is, counted guarded
+            if not n:
                 lo, hi = 0.0, h                              # the longest step within the cap (bisection)
                 for _ in range(200):
                     mid = 0.5 * (lo + hi)
                     lo, hi = (mid, hi) if self._rotation_count(mid, w, a) <= self.cap else (lo, mid)
-                raise too_many_steps(self.cap, ratio, h, lo, self.culprit() or "state")
-            n = max(1, math.ceil(ratio * (1 - 1e-12)))
+                cause = step_policy.Cause(self.culprit() or "state", _ALLOWED)
+                raise step_policy.refusal(h, ratio, self.cap, lo, cause)
             return n, (f"scheme {self.scheme}: rotation per internal step <= 0.5 tolerance^(1/4) = "
                        f"{self.theta_max:.3g} rad (|omega| = {w:.4g} rad/s, |alpha| = {a:.4g} rad/s^2, held)")
-        ratio = h / self.max_step * (1 - 1e-12)
-        if not ratio <= self.cap:
-            raise too_many_steps(self.cap, ratio, h, self.cap * self.max_step, "internal_step")
-        n = max(1, math.ceil(ratio))
+        n = step_policy.split_step(h, self.max_step, self.cap)
+        if not n:
+            raise step_policy.split_refusal(h, self.max_step, self.cap, _INTERNAL_STEP)
         why = (f"internal_step = {self.internal_step:g} s" if self.internal_step > 0 else
                f"scheme {self.scheme} (RK4): 90 % of the stability limit {self.limit:.4g} s")
         return n, why
@@ -209,10 +203,10 @@ class ClampedEngine:
     def split(self, h: float):
         if self.internal_step == 0:
             return 1, "exact zero-order hold: one internal step of any length"
-        ratio = h / self.internal_step * (1 - 1e-12)
-        if not ratio <= self.cap:
-            raise too_many_steps(self.cap, ratio, h, self.cap * self.internal_step, "internal_step")
-        return max(1, math.ceil(ratio)), f"internal_step = {self.internal_step:g} s (each exact)"
+        n = step_policy.split_step(h, self.internal_step, self.cap)
+        if not n:
+            raise step_policy.split_refusal(h, self.internal_step, self.cap, _INTERNAL_STEP)
+        return n, f"internal_step = {self.internal_step:g} s (each exact)"
 
     def culprit(self) -> str | None:
         """The held input most likely behind an overflow (the spin enters squared), else None."""

@@ -3,8 +3,9 @@ or parameter that drove a model out of the floating-point range (flexfmu.errors 
 
 The simulators check every parameter at construction (type, range), fail a step *before* changing their
 state when it would need more internal steps than ``max_internal_steps`` (StepRejected when a smaller
-communication step would do, ParameterError naming the cause when not even MIN_COMMUNICATION_STEP would),
-and check the state and outputs for overflow cheaply on the hot path, naming the culprit only on failure.
+communication step would do, ParameterError naming the cause when not even MIN_COMMUNICATION_STEP would: the rule
+and its messages are flexfmu.native.step_policy's, one C implementation), and check the state and outputs for
+overflow cheaply on the hot path, naming the culprit only on failure.
 """
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ DEFAULT_MAX_INTERNAL_STEPS = 100_000
 MAX_INTERNAL_STEPS_RANGE = (1, 100_000_000)
 #: The smallest communication step a co-simulation master is expected to take (s).  A step that would need
 #: more than max_internal_steps is rejected (fmi2Discard: retry smaller) when a step of at least this size
-#: would be within the cap; otherwise the input or parameter that makes it so is refused (fmi2Error).
+#: would be within the cap; otherwise the input or parameter that makes it so is refused (fmi2Error).  The C step
+#: policy has it as FFX_MIN_COMMUNICATION_STEP (flexfmu/native/csrc/step_policy.h; tests/test_step_policy.py).
 MIN_COMMUNICATION_STEP = 1e-5
 
 
@@ -93,14 +95,6 @@ def check_max_internal_steps(value) -> int:
     lo, hi = MAX_INTERNAL_STEPS_RANGE
     return require_int(value, "max_internal_steps", lo, hi,
                        f"an integer {lo} .. {hi:.0e} (default {DEFAULT_MAX_INTERNAL_STEPS})")
-
-
-def round_down(x: float, digits: int = 4) -> float:
-    """x > 0 rounded down to ``digits`` significant digits: a bound quoted in a message that still holds."""
-    if not (math.isfinite(x) and x > 0):
-        return x
-    scale = 10.0 ** (math.floor(math.log10(x)) - digits + 1)
-    return math.floor(x / scale * (1 - 1e-12)) * scale
 
 
 def shown(value, limit: int = 120) -> str:

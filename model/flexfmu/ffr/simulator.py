@@ -7,8 +7,8 @@ FMU's.  Inputs are held over each step (zero-order hold) and the step is exact f
 (flexfmu.ffr.dynamics), so one internal step per communication step of any length.  With
 integrator = "rk4" the step is classical RK4 instead, sub-stepped automatically below its stability
 limit (n_sub = ceil(h / (0.9 h_limit)) equal sub-steps, composed into one map per communication step); more
-than ``max_internal_steps`` sub-steps are refused before stepping (flexfmu.core.checks: StepRejected when a smaller
-communication step would do).  A state or output that overflows is a NonFiniteError naming the input behind it;
+than ``max_internal_steps`` sub-steps are refused before stepping (flexfmu.native.step_policy: StepRejected when a
+smaller communication step would do).  A state or output that overflows is a NonFiniteError naming the input behind it;
 a failed step keeps the state of its start.
 
 Model size (flexfmu.sizing.model_size, docs/model_size.md): elements_per_segment = 0 chooses the mesh from
@@ -31,12 +31,13 @@ import numpy as np
 from flexfmu.core.blas import limited_for
 from flexfmu.ffr.assembly import BOUNDARY_PRESETS, boundary_clamps, build_beam_model
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
-                            finite, finite_input, is_int, require_str, round_down, shown)
+                            finite, finite_input, is_int, require_str, shown)
 from flexfmu.errors import DivergenceError, FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.step_size import StepSizes
 from flexfmu.ffr.dynamics import MAP_MEMO_SIZE, RK4_STABILITY_LIMIT, BaseMotion, FFRBeamDynamics, ModalState
 from flexfmu.linalg.modal import solve_modes
+from flexfmu.native import step_policy
 from flexfmu.sizing.beam import (ModelChoice, StaticCorrection, TruncationChoice, ffr_load_patterns,
                                  ffr_static_correction, ffr_truncation_errors)
 from flexfmu.sizing.common import SAFETY_FACTOR
@@ -450,10 +451,11 @@ class FFRBeamSimulator:
         dyn = self.dynamics
         limit = dyn.rk4_step_limit(base)
         if math.isfinite(limit):
-            ratio = h / (RK4_STEP_FRACTION * limit)
-            if not ratio <= self.config.max_internal_steps:
+            ratio = h / (RK4_STEP_FRACTION * limit)           # no guard: counted as it is (flexfmu.native.step_policy)
+            if not (n_sub := step_policy.step_count(ratio, 1.0, self.config.max_internal_steps)):
                 raise self._too_many_steps(h, limit, ratio)
-        n_sub = max(1, math.ceil(h / (RK4_STEP_FRACTION * limit))) if math.isfinite(limit) else 1
+        else:
+            n_sub = 1
         Ad, Bu, b0, C, y0 = dyn.fast_maps(h / n_sub, base)
         if n_sub > 1:
             m2, k = Ad.shape[0], Bu.shape[1]
@@ -466,18 +468,16 @@ class FFRBeamSimulator:
         return Ad, Bu, b0, C, y0, (n_sub, limit, omega_max, h)
 
     def _too_many_steps(self, h: float, limit: float, ratio: float) -> FlexfmuError:
-        """More RK4 sub-steps than max_internal_steps: StepRejected when a communication step of at least
-        MIN_COMMUNICATION_STEP would be within the cap, else ParameterError naming the held base rotation (when
-        without it the limit would allow that) or the integrator (the highest retained mode sets the limit)."""
+        """More RK4 sub-steps than max_internal_steps (flexfmu.native.step_policy, in its RK4 wording): StepRejected
+        when a communication step of at least MIN_COMMUNICATION_STEP would be within the cap, else ParameterError
+        naming the held base rotation (when without it the limit would allow that) or the integrator (the highest
+        retained mode sets the limit)."""
         cap = self.config.max_internal_steps
-        h_ok = cap * RK4_STEP_FRACTION * limit
-        needed = f"{math.ceil(ratio)}" if ratio < 1e15 else f"{ratio:.3g}"
-        if h_ok >= MIN_COMMUNICATION_STEP:
-            return StepRejected("max_internal_steps", f"integrator rk4 needs {needed} internal steps for this "
-                                f"communication step of {h:g} s (cap {cap}; stable step limit {limit:.4g} s); take a "
-                                f"communication step <= {round_down(h_ok):.4g} s or raise max_internal_steps")
-        why = (f"integrator rk4: the stable step limit {limit:.3g} s (2.8 / omega_max) needs more than "
-               f"max_internal_steps = {cap} sub-steps even for a {MIN_COMMUNICATION_STEP:g} s communication step")
+        return step_policy.refusal(h, ratio, cap, cap * RK4_STEP_FRACTION * limit, lambda: self._rk4_cause(limit),
+                                   rk4_limit=limit)
+
+    def _rk4_cause(self, limit: float):
+        cap = self.config.max_internal_steps
         name = self._base_culprit()
         if name is not None:
             try:
@@ -485,11 +485,11 @@ class FFRBeamSimulator:
             except (np.linalg.LinAlgError, ArithmeticError, ValueError):
                 free = 0.0
             if cap * RK4_STEP_FRACTION * free >= MIN_COMMUNICATION_STEP:
-                return ParameterError(name, f"{self.inputs[name]:.6g}: the held base motion makes {why}",
-                                      "a smaller base rotation, or integrator exact (no step limit)")
+                return step_policy.Cause(name, "a smaller base rotation, or integrator exact (no step limit)",
+                                         f"{self.inputs[name]:.6g}: the held base motion makes ")
         f_top = RK4_STABILITY_LIMIT / limit / (2 * math.pi)
-        return ParameterError("integrator", f"{why} (highest retained mode {f_top:.6g} Hz)",
-                              "integrator exact (no step limit), fewer modes, or a larger max_internal_steps")
+        return step_policy.Cause("integrator", "integrator exact (no step limit), fewer modes, or a larger "
+                                 "max_internal_steps", after=f" (highest retained mode {f_top:.6g} Hz)")
 
     def _log_substeps(self, sub) -> None:
         n_sub, limit, omega_max, h = sub

@@ -102,8 +102,8 @@ LO_OPEN, HI_OPEN, INTEGER, SPECIAL = 1, 2, 4, 8
 #: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
 _FRONT = ("native_front.c", "flexfmu_native.c", "native_lti.c", "native_reframe.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "flexfmu_bridge.h", "native_kind.h", "native_platform.h")
-_KERNELS = ("lti_kernels.c", "reframe_kernels.c")
-_KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h")
+_KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
+_KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 #: FMU specs with a native form (flexfmu.fmi.registry names), and why the others have none yet
 NATIVE_FMUS = ("FFRBeam", "ReframeBody")
@@ -468,6 +468,7 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
 | `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
 | `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
+| `step_policy.c`, `step_policy.h` | both kinds: a communication step's internal steps, refused beyond max_internal_steps |
 | `native_platform.h` | Windows: locks and the library's own path |
 | `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
 
@@ -488,11 +489,11 @@ The library is written to `binaries/<platform>/` (`win64/{name}.dll`, `darwin64/
 - **Linux**: gcc or clang; the library links libc, libm, libpthread and libdl only.
 
 Without CMake: compile `native_front.c flexfmu_native.c native_lti.c native_reframe.c lti_kernels.c
-reframe_kernels.c` into one shared library
+reframe_kernels.c step_policy.c` into one shared library
 named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
 symbol visibility (only the fmi2* functions are exported) and libm, e.g.
 `cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_native.c
-native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c -o {name}.so -lm -lpthread -ldl`.
+native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """

@@ -15,10 +15,10 @@ internal steps (one kernel call).  ``internal_step`` > 0 is the longest internal
   attitude is ~ (|omega| h)^4 per step): one internal step per communication step for a body that
   does not spin fast.
 
-The count is known before stepping; more than ``max_internal_steps`` is refused (flexfmu.core.checks): StepRejected
-(fmi2Discard) when a communication step of at least 1e-5 s would be within the cap, else a ParameterError naming
-the input (the force behind the angular acceleration) or the initial spin.  Overflow of the state or the outputs
-is a NonFiniteError naming its likely cause; a failed step keeps the state of its start.
+The count is known before stepping; more than ``max_internal_steps`` is refused (flexfmu.native.step_policy):
+StepRejected (fmi2Discard) when a communication step of at least 1e-5 s would be within the cap, else a
+ParameterError naming the input (the force behind the angular acceleration) or the initial spin.  Overflow of the
+state or the outputs is a NonFiniteError naming its likely cause; a failed step keeps the state of its start.
 
 The messages list collects what was chosen and why (model size with ``n_flexible_modes = -1``, the
 internal step and its reason, logged once and again when it changes); the FMU logs them (status OK).
@@ -48,10 +48,11 @@ import numpy as np
 from flexfmu.core.step_size import StepSizes
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
-                            finite, finite_input, is_int, require_bool, require_real, require_str, round_down, shown)
-from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, StepRejected, require
+                            finite, finite_input, is_int, require_bool, require_real, require_str, shown)
+from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, require
 from flexfmu.sizing.solid import BasisChoice, auto_basis
 from flexfmu.linalg.modal_basis import modal_basis
+from flexfmu.native import step_policy
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, ReframeIntegrator, ReframeState
@@ -283,10 +284,9 @@ class ReframeBodySimulator:
         before anything is stepped, and more than max_internal_steps is refused (_too_many_steps)."""
         c = self.config
         cap = c.max_internal_steps
-        ratio = step_size / self.max_internal_step * (1 - 1e-12)
-        if not ratio <= cap:
-            raise self._too_many_steps(step_size, ratio)
-        n = max(1, math.ceil(ratio))
+        n = step_policy.split_step(step_size, self.max_internal_step, cap)
+        if not n:
+            raise self._too_many_steps(step_size)
         wmax = self.integrator.data.omega_max
         if c.internal_step > 0:
             why = f"internal_step = {c.internal_step:g} s requested"
@@ -305,10 +305,9 @@ class ReframeBodySimulator:
             if not (w < math.inf and a < math.inf):      # the state's own rates overflow (NaN or inf)
                 raise self._overflow(step_size, "the angular velocity or acceleration")
             theta = w * step_size + 0.5 * a * step_size**2
-            ratio = theta / self._theta_max * (1 - 1e-12)
-            if not ratio <= cap:
-                raise self._too_many_steps(step_size, ratio, (w, a))
-            n = max(1, math.ceil(ratio))
+            n = step_policy.split_step(theta, self._theta_max, cap)     # theta / theta_max, counted as h / step
+            if not n:
+                raise self._too_many_steps(step_size, theta / self._theta_max * step_policy.GUARD, (w, a))
             if n > 1:                                      # then the rotation per internal step is <= theta_max
                 # (w h + a h^2 / 2 <= theta / n for h = step_size / n; the few extra steps cover the rounding)
                 h = step_size / n
@@ -326,33 +325,29 @@ class ReframeBodySimulator:
                    f"{self._theta_max:.3g} rad (|omega| = {w:.4g} rad/s, |alpha| ~ {a:.4g} rad/s^2)")
         return n, why
 
-    def _too_many_steps(self, step_size: float, needed: float, rates=None) -> FlexfmuError:
-        """More internal steps than max_internal_steps: StepRejected when a communication step of at least
-        MIN_COMMUNICATION_STEP would be within the cap (the largest such step is named), else ParameterError
-        naming what makes it so (the held input behind the angular acceleration, or the spin)."""
+    def _too_many_steps(self, step_size: float, needed: float | None = None, rates=None) -> FlexfmuError:
+        """More internal steps than max_internal_steps (flexfmu.native.step_policy): StepRejected when a communication
+        step of at least MIN_COMMUNICATION_STEP would be within the cap (the largest such step is named), else
+        ParameterError naming what makes it so (the internal step; the held input behind the angular acceleration,
+        or the spin).  rates: None for fixed or stability-limited internal steps (needed is then the policy's)."""
         cap = self.config.max_internal_steps
-        theta = self._theta_max
-        if rates is None:                                  # fixed or stability-limited internal steps
-            h_ok = cap * self.max_internal_step
-        else:
-            w, a = rates
-            # the largest h with w h + a h^2 / 2 <= theta, then cap of them (Python floats: inf, no exception)
-            disc = w * w + 2.0 * a * theta
-            root = math.sqrt(disc) if math.isfinite(disc) else math.inf
-            h_ok = cap * 2.0 * theta / (w + root) if w + root > 0 else math.inf
-        count = f"{math.ceil(needed)}" if math.isfinite(needed) and needed < 1e15 else f"{needed:.3g}"
-        if h_ok >= MIN_COMMUNICATION_STEP:
-            return StepRejected("max_internal_steps", f"needs {count} internal steps for this communication step of "
-                                f"{step_size:g} s (cap {cap}); take a smaller communication step "
-                                f"(<= {round_down(h_ok):.4g} s) or raise max_internal_steps")
-        h_min = MIN_COMMUNICATION_STEP
-        if rates is None:                                  # refused at construction; kept for completeness
-            return ParameterError("internal_step", f"{self.max_internal_step:g} s: even a {h_min:g} s communication "
-                                  f"step needs more than max_internal_steps = {cap} internal steps",
-                                  "a longer internal step or a larger max_internal_steps")
+        if rates is None:
+            return step_policy.split_refusal(step_size, self.max_internal_step, cap, step_policy.Cause(
+                "internal_step", "a longer internal step or a larger max_internal_steps",
+                f"{self.max_internal_step:g} s: "))
         w, a = rates
-        why = (f"even a {h_min:g} s communication step needs more than max_internal_steps = {cap} internal steps of at "
-               f"most 0.5 tolerance^(1/4) = {theta:.3g} rad (scheme exponential)")
+        theta = self._theta_max
+        # the largest h with w h + a h^2 / 2 <= theta, then cap of them (Python floats: inf, no exception)
+        disc = w * w + 2.0 * a * theta
+        root = math.sqrt(disc) if math.isfinite(disc) else math.inf
+        h_ok = cap * 2.0 * theta / (w + root) if w + root > 0 else math.inf
+        return step_policy.refusal(step_size, needed, cap, h_ok, lambda: self._spin_cause(w, a))
+
+    def _spin_cause(self, w: float, a: float):
+        """Why not even a MIN_COMMUNICATION_STEP step fits the cap (exponential scheme): the held input behind the
+        angular acceleration, else the initial spin (t = 0) or the state's spin."""
+        cap, theta, h_min = self.config.max_internal_steps, self._theta_max, MIN_COMMUNICATION_STEP
+        after = f" of at most 0.5 tolerance^(1/4) = {theta:.3g} rad (scheme exponential)"
         a_ok = max(2.0 * (cap * theta - w * h_min) / h_min ** 2, 0.0)
         if 0.5 * a * h_min * h_min >= w * h_min:           # the angular acceleration of the held inputs
             scores = {f"F_{x}": abs(self._force[i]) * self._arm for i, x in enumerate(AXES)}
@@ -361,15 +356,17 @@ class ReframeBodySimulator:
             unit, lever = ("N", self._arm) if name.startswith("F") else ("N.m", 1.0)
             allowed = (f"|{name[0]}| <= about {a_ok * self._J_min / lever:.3g} {unit} at this load point "
                        f"(|alpha| <= {a_ok:.3g} rad/s^2)" if lever > 0 else "a smaller input")
-            return ParameterError(name, f"{self.inputs[name]:g} {unit} gives an angular acceleration of up to "
-                                  f"{a:.3g} rad/s^2: {why}", allowed)
+            return step_policy.Cause(name, allowed, f"{self.inputs[name]:g} {unit} gives an angular acceleration of "
+                                     f"up to {a:.3g} rad/s^2: ", after)
         omega_ok = cap * theta / h_min
         if self.state.t == 0.0:
             c = self.config
             name = max(("omega0_1", "omega0_2", "omega0_3"), key=lambda n: abs(getattr(c, n)))
-            return ParameterError(name, f"the body spins at {w:.4g} rad/s: {why}", f"|omega0| <= {omega_ok:.4g} rad/s")
-        return ParameterError("state", f"the body spins at {w:.4g} rad/s at t = {self.state.t:.6g} s (spun up by the "
-                              f"inputs held so far): {why}", f"inputs that keep |omega| <= {omega_ok:.4g} rad/s")
+            return step_policy.Cause(name, f"|omega0| <= {omega_ok:.4g} rad/s", f"the body spins at {w:.4g} rad/s: ",
+                                     after)
+        return step_policy.Cause("state", f"inputs that keep |omega| <= {omega_ok:.4g} rad/s", f"the body spins at "
+                                 f"{w:.4g} rad/s at t = {self.state.t:.6g} s (spun up by the inputs held so far): ",
+                                 after)
 
     def _rates(self):
         """|omega| and |alpha| at the start of a communication step with the new inputs, for the exponential

@@ -16,8 +16,8 @@
  *
  * A communication step h is one exact zero-order-hold step, or with internal_step > 0 n = ceil(h /
  * internal_step) equal exact steps (as flexfmu.body.engines.ClampedEngine), refused beyond max_internal_steps
- * (fmi2Discard when a smaller communication step would do).  The step maps are cached in the simulator for the
- * last (p, h) by the kernels.
+ * (fmi2Discard when a smaller communication step would do): the rule of step_policy.h (flexfmu/native/csrc).  The
+ * step maps are cached in the simulator for the last (p, h) by the kernels.
  */
 #include <math.h>
 #include <stdint.h>
@@ -28,8 +28,7 @@
 #include "flexfmu_bridge.h"
 #include "lti_kernels.h"
 #include "native_kind.h"
-
-#define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
+#include "step_policy.h"
 
 typedef struct {
     ffx_lti_model kernel;
@@ -206,11 +205,12 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     }
     s->internal_step = m->internal_step >= 0 ? params[m->internal_step] : 0.0;
     s->cap = m->max_internal_steps >= 0 ? (long)params[m->max_internal_steps] : 0;
-    if (s->cap > 0 && s->internal_step > 0 && s->internal_step < MIN_COMMUNICATION_STEP / (double)s->cap) {
+    if (s->cap > 0 && s->internal_step > 0 && s->internal_step < FFX_MIN_COMMUNICATION_STEP / (double)s->cap) {
         native_refuse(r, BRIDGE_ERROR,
                       "internal_step: %g s needs more than max_internal_steps = %ld for a %g s "
                       "communication step (allowed: 0 (one exact step) or >= %.3g s)",
-                      s->internal_step, s->cap, MIN_COMMUNICATION_STEP, MIN_COMMUNICATION_STEP / (double)s->cap);
+                      s->internal_step, s->cap, FFX_MIN_COMMUNICATION_STEP,
+                      FFX_MIN_COMMUNICATION_STEP / (double)s->cap);
         free_sim(s);
         return NULL;
     }
@@ -228,44 +228,22 @@ static void assemble(LtiSim *s, const double *in) {
                                           : m->p_start[k];
 }
 
-/* Python's round_down(x, 4) (flexfmu.core.checks): x > 0 rounded down to 4 significant digits. */
-static double round_down(double x) {
-    if (!(isfinite(x) && x > 0)) return x;
-    double scale = pow(10.0, floor(log10(x)) - 3);
-    return floor(x / scale * (1 - 1e-12)) * scale;
-}
-
-/* Internal steps of a communication step h (>= 1), or 0 after refusing (flexfmu.body.engines.too_many_steps). */
+/* Internal steps of a communication step h (>= 1), or 0 after refusing (step_policy.h, as ClampedEngine.split). */
 static long split(LtiSim *s, double t, double h, NativeResult *r) {
     long n = 1;
     const char *exact = "exact zero-order hold: one internal step of any length";
     char why[160];
     snprintf(why, sizeof why, "%s", exact);
     if (s->internal_step > 0) {
-        double ratio = h / s->internal_step * (1 - 1e-12);
-        if (!(ratio <= (double)s->cap)) {
-            double h_ok = (double)s->cap * s->internal_step;
-            char count[64];
-            if (isfinite(ratio) && ratio < 1e15)
-                snprintf(count, sizeof count, "%.0f", ceil(ratio));
-            else
-                snprintf(count, sizeof count, "%.3g", ratio);
-            if (h_ok >= MIN_COMMUNICATION_STEP)
-                native_refuse(r, BRIDGE_DISCARD,
-                              "max_internal_steps: needs %s internal steps for this communication "
-                              "step of %g s (cap %ld); take a smaller communication step (<= %.4g "
-                              "s) or raise max_internal_steps",
-                              count, h, s->cap, round_down(h_ok));
-            else
-                native_refuse(r, BRIDGE_ERROR,
-                              "internal_step: even a %g s communication step needs more than "
-                              "max_internal_steps = %ld internal steps (allowed: a smaller value, or "
-                              "a larger max_internal_steps)",
-                              MIN_COMMUNICATION_STEP, s->cap);
+        n = ffx_split_step(h, s->internal_step, s->cap);
+        if (n == 0) {
+            static const ffx_step_cause cause
+                = {"internal_step", NULL, NULL, "a smaller value, or a larger max_internal_steps"};
+            ffx_step_refusal refusal;
+            ffx_split_refuse(h, s->internal_step, s->cap, &cause, &refusal);
+            native_refuse(r, refusal.status == FFX_STEP_DISCARD ? BRIDGE_DISCARD : BRIDGE_ERROR, "%s", refusal.message);
             return 0;
         }
-        n = (long)ceil(ratio);
-        if (n < 1) n = 1;
         snprintf(why, sizeof why, "internal_step = %g s (each exact)", s->internal_step);
     }
     if (s->m->log_split && n != s->last_split)

@@ -60,8 +60,8 @@
 #include "native_kind.h"
 #include "lti_kernels.h" /* ffx_same_step: one step for a host's last-bit variants */
 #include "reframe_kernels.h"
+#include "step_policy.h"
 
-#define MIN_COMMUNICATION_STEP 1e-5 /* flexfmu.core.checks.MIN_COMMUNICATION_STEP */
 #define N_ROLES 11
 #define FFX_PI 3.14159265358979323846
 #define AUTO_STEP_FRACTION 0.9 /* flexfmu.body.engines.AUTO_STEP_FRACTION */
@@ -247,7 +247,7 @@ static int free_checks(ReframeSim *s, double shortest, NativeResult *r) {
                              "%s: internal steps of %.3g s need more than max_internal_steps = %ld "
                              "for a %g s communication step (allowed: scheme exponential, fewer "
                              "modes, or a larger max_internal_steps)",
-                             h == 0 ? "scheme" : "internal_step", s->max_step, s->cap, MIN_COMMUNICATION_STEP);
+                             h == 0 ? "scheme" : "internal_step", s->max_step, s->cap, FFX_MIN_COMMUNICATION_STEP);
     return 0;
 }
 
@@ -281,7 +281,7 @@ static void *init(const void *model, const double *params, double *x, NativeResu
     s->internal_step = s->roles[R_INTERNAL];
     s->cap = (long)s->roles[R_CAP];
     s->last_split = 0;
-    double shortest = MIN_COMMUNICATION_STEP / (double)s->cap;
+    double shortest = FFX_MIN_COMMUNICATION_STEP / (double)s->cap;
     if (m->free_body && free_checks(s, shortest, r)) {
         free_sim(s);
         return NULL;
@@ -295,11 +295,11 @@ static void *init(const void *model, const double *params, double *x, NativeResu
                       "internal_step: %s s: even a %g s communication step would need more than "
                       "max_internal_steps = %ld of them (allowed: 0 (automatic), or %.3g s .. any "
                       "longer step (no stability limit))",
-                      shown, MIN_COMMUNICATION_STEP, s->cap, shortest);
+                      shown, FFX_MIN_COMMUNICATION_STEP, s->cap, shortest);
         free_sim(s);
         return NULL;
     }
-    double omega_cap = (double)s->cap * s->theta_max / MIN_COMMUNICATION_STEP, omega0 = norm3(w0);
+    double omega_cap = (double)s->cap * s->theta_max / FFX_MIN_COMMUNICATION_STEP, omega0 = norm3(w0);
     if (!(omega0 <= omega_cap)) {
         int i = 0;
         for (int k = 1; k < 3; k++)
@@ -309,8 +309,8 @@ static void *init(const void *model, const double *params, double *x, NativeResu
                       "step needs more than max_internal_steps = %ld internal steps of at most 0.5 "
                       "tolerance^(1/4) = %.3g rad (allowed: |omega0| <= %.4g rad/s (max_internal_steps "
                       "x 0.5 tolerance^(1/4) / %g s))",
-                      ROLE_NAMES[R_OMEGA0 + i], w0[i], omega0, MIN_COMMUNICATION_STEP, s->cap, s->theta_max, omega_cap,
-                      MIN_COMMUNICATION_STEP);
+                      ROLE_NAMES[R_OMEGA0 + i], w0[i], omega0, FFX_MIN_COMMUNICATION_STEP, s->cap, s->theta_max,
+                      omega_cap, FFX_MIN_COMMUNICATION_STEP);
         free_sim(s);
         return NULL;
     }
@@ -366,54 +366,39 @@ static void kernel_outputs(ReframeSim *s, const double *x, const double *u, int 
                         m->n_super, s->out, s->work);
 }
 
-/* Python's round_down(x, 4) (flexfmu.core.checks). */
-static double round_down(double x) {
-    if (!(isfinite(x) && x > 0)) return x;
-    double scale = pow(10.0, floor(log10(x)) - 3);
-    return floor(x / scale * (1 - 1e-12)) * scale;
-}
-
 static double dist3(const double *a, const double *b) {
     double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
     return norm3(d);
 }
 
-/* ReframeBodySimulator._too_many_steps: the refusal of a split beyond the cap (rates: NULL for fixed steps). */
+/* A refusal of the step policy (step_policy.h) as the bridge reports it. */
+static int step_refused(NativeResult *r, const ffx_step_refusal *refusal) {
+    return native_refuse(r, refusal->status == FFX_STEP_DISCARD ? BRIDGE_DISCARD : BRIDGE_ERROR, "%s",
+                         refusal->message);
+}
+
+/* ReframeBodySimulator._too_many_steps: the refusal of a split beyond the cap (rates: NULL for fixed steps, needed
+   is then the policy's); the cause of an error as ReframeBodySimulator._spin_cause names it. */
 static int too_many(ReframeSim *s, double t, double h, double needed, const double *rates, const double *u,
                     NativeResult *r) {
     const ReframeModel *m = s->m;
-    double theta = s->theta_max, h_ok;
+    double theta = s->theta_max;
     long cap = s->cap;
-    if (!rates)
-        h_ok = (double)cap * s->internal_step;
-    else {
-        double w = rates[0], a = rates[1], disc = w * w + 2.0 * a * theta;
-        double root = isfinite(disc) ? sqrt(disc) : INFINITY;
-        h_ok = w + root > 0 ? (double)cap * 2.0 * theta / (w + root) : INFINITY;
+    ffx_step_refusal refusal;
+    char before[256], after[128], allowed[256];
+    if (!rates) {
+        snprintf(before, sizeof before, "%g s: ", s->internal_step);
+        ffx_step_cause cause = {"internal_step", before, NULL, "a longer internal step or a larger max_internal_steps"};
+        ffx_split_refuse(h, s->internal_step, cap, &cause, &refusal);
+        return step_refused(r, &refusal);
     }
-    char count[64];
-    if (isfinite(needed) && needed < 1e15)
-        snprintf(count, sizeof count, "%.0f", ceil(needed));
-    else
-        snprintf(count, sizeof count, "%.3g", needed);
-    if (h_ok >= MIN_COMMUNICATION_STEP)
-        return native_refuse(r, BRIDGE_DISCARD,
-                             "max_internal_steps: needs %s internal steps for this communication "
-                             "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
-                             "or raise max_internal_steps",
-                             count, h, cap, round_down(h_ok));
-    if (!rates)
-        return native_refuse(r, BRIDGE_ERROR,
-                             "internal_step: %g s: even a %g s communication step needs more than "
-                             "max_internal_steps = %ld internal steps (allowed: a longer internal step "
-                             "or a larger max_internal_steps)",
-                             s->internal_step, MIN_COMMUNICATION_STEP, cap);
-    double w = rates[0], a = rates[1], hm = MIN_COMMUNICATION_STEP;
-    char why[256];
-    snprintf(why, sizeof why,
-             "even a %g s communication step needs more than max_internal_steps = %ld internal steps "
-             "of at most 0.5 tolerance^(1/4) = %.3g rad (scheme exponential)",
-             hm, cap, theta);
+    double w = rates[0], a = rates[1], hm = FFX_MIN_COMMUNICATION_STEP, disc = w * w + 2.0 * a * theta;
+    double root = isfinite(disc) ? sqrt(disc) : INFINITY;
+    double h_ok = w + root > 0 ? (double)cap * 2.0 * theta / (w + root) : INFINITY;
+    if (ffx_step_refuse(h, needed, cap, h_ok, 0.0, NULL, &refusal) == FFX_STEP_DISCARD)
+        return step_refused(r, &refusal);
+    snprintf(after, sizeof after, " of at most 0.5 tolerance^(1/4) = %.3g rad (scheme exponential)", theta);
+    ffx_step_cause cause = {"state", before, after, allowed};
     if (0.5 * a * hm * hm >= w * hm) {
         static const char *const names[6] = {"F_x", "F_y", "F_z", "M_x", "M_y", "M_z"};
         int best = 0;
@@ -423,18 +408,18 @@ static int too_many(ReframeSim *s, double t, double h, double needed, const doub
             if (score > best_score) best = k, best_score = score;
         }
         double a_ok = fmax(2.0 * ((double)cap * theta - w * hm) / (hm * hm), 0.0), lever = best < 3 ? m->arm : 1.0;
-        return native_refuse(r, BRIDGE_ERROR,
-                             "%s: %g %s gives an angular acceleration of up to %.3g rad/s^2: %s "
-                             "(allowed: |%c| <= about %.3g %s at this load point (|alpha| <= %.3g "
-                             "rad/s^2))",
-                             names[best], u[best], best < 3 ? "N" : "N.m", a, why, names[best][0],
-                             lever > 0 ? a_ok * m->J_min / lever : 0.0, best < 3 ? "N" : "N.m", a_ok);
+        const char *unit = best < 3 ? "N" : "N.m";
+        cause.parameter = names[best];
+        snprintf(before, sizeof before, "%g %s gives an angular acceleration of up to %.3g rad/s^2: ", u[best], unit,
+                 a);
+        snprintf(allowed, sizeof allowed, "|%c| <= about %.3g %s at this load point (|alpha| <= %.3g rad/s^2)",
+                 names[best][0], lever > 0 ? a_ok * m->J_min / lever : 0.0, unit, a_ok);
+    } else {
+        snprintf(before, sizeof before, "the body spins at %.4g rad/s at t = %.6g s: ", w, t);
+        snprintf(allowed, sizeof allowed, "inputs that keep |omega| <= %.4g rad/s", (double)cap * theta / hm);
     }
-    double omega_ok = (double)cap * theta / hm;
-    return native_refuse(r, BRIDGE_ERROR,
-                         "state: the body spins at %.4g rad/s at t = %.6g s: %s (allowed: inputs "
-                         "that keep |omega| <= %.4g rad/s)",
-                         w, t, why, omega_ok);
+    ffx_step_refuse(h, needed, cap, h_ok, 0.0, &cause, &refusal);
+    return step_refused(r, &refusal);
 }
 
 /* ReframeBodySimulator._split: the internal steps of a communication step h (>= 1), or 0 after refusing. */
@@ -443,10 +428,8 @@ static long split(ReframeSim *s, const double *x, const double *u_before, const 
     long cap = s->cap, n;
     char why[400];
     if (s->internal_step > 0) {
-        double ratio = h / s->internal_step * (1 - 1e-12);
-        if (!(ratio <= (double)cap)) return too_many(s, t, h, ratio, NULL, u, r), 0;
-        n = (long)ceil(ratio);
-        if (n < 1) n = 1;
+        n = ffx_split_step(h, s->internal_step, cap);
+        if (n == 0) return too_many(s, t, h, 0.0, NULL, u, r), 0;
         snprintf(why, sizeof why, "internal_step = %g s requested", s->internal_step);
     } else {
         const ReframeModel *m = s->m;
@@ -457,10 +440,8 @@ static long split(ReframeSim *s, const double *x, const double *u_before, const 
         if (changed) a = a + (m->arm * dist3(u_before, u) + dist3(u_before + 3, u + 3)) / m->J_min;
         if (!(w < INFINITY && a < INFINITY)) return 0; /* NATIVE_NOT_FINITE: the caller reports it */
         double theta = w * h + 0.5 * a * h * h, rates[2] = {w, a};
-        double ratio = theta / s->theta_max * (1 - 1e-12);
-        if (!(ratio <= (double)cap)) return too_many(s, t, h, ratio, rates, u, r), 0;
-        n = (long)ceil(ratio);
-        if (n < 1) n = 1;
+        n = ffx_split_step(theta, s->theta_max, cap); /* theta / theta_max, counted as h / step */
+        if (n == 0) return too_many(s, t, h, theta / s->theta_max * FFX_STEP_GUARD, rates, u, r), 0;
         if (n > 1) {
             double hi = h / (double)n;
             int k;
@@ -531,24 +512,10 @@ static double rotation_count(const ReframeSim *s, double h, double w, double a) 
     return isfinite(root) ? h * (wm + root) / (2.0 * s->theta_max) : INFINITY;
 }
 
-/* flexfmu.body.engines.too_many_steps */
-static int free_too_many(ReframeSim *s, double needed, double h, double h_ok, const char *cause, NativeResult *r) {
-    char count[64];
-    if (isfinite(needed) && needed < 1e15)
-        snprintf(count, sizeof count, "%.0f", ceil(needed));
-    else
-        snprintf(count, sizeof count, "%.3g", needed);
-    if (h_ok >= MIN_COMMUNICATION_STEP)
-        return native_refuse(r, BRIDGE_DISCARD,
-                             "max_internal_steps: needs %s internal steps for this communication "
-                             "step of %g s (cap %ld); take a smaller communication step (<= %.4g s) "
-                             "or raise max_internal_steps",
-                             count, h, s->cap, round_down(h_ok));
-    return native_refuse(r, BRIDGE_ERROR,
-                         "%s: even a %g s communication step needs more than max_internal_steps = "
-                         "%ld internal steps (allowed: a smaller value, or a larger "
-                         "max_internal_steps)",
-                         cause, MIN_COMMUNICATION_STEP, s->cap);
+/* What FreeEngine.split's refusals name in an error (flexfmu.body.engines). */
+static ffx_step_cause free_step_cause(const char *name) {
+    ffx_step_cause cause = {name, NULL, NULL, "a smaller value, or a larger max_internal_steps"};
+    return cause;
 }
 
 /* The culprit's name of FreeEngine.culprit, or "state". */
@@ -567,7 +534,8 @@ static long free_split(ReframeSim *s, const double *x, const double *u, double t
         double w = norm_n(s->out + 10, 3), a = norm_n(s->out + 13, 3);
         if (!(isfinite(w) && isfinite(a))) return 0; /* NATIVE_NOT_FINITE: the caller reports it */
         double ratio = rotation_count(s, h, w, a);
-        if (!(ratio <= (double)cap)) {
+        n = ffx_step_count(ratio, FFX_STEP_GUARD, cap); /* capped as it is, counted guarded */
+        if (n == 0) {
             double lo = 0.0, hi = h;
             for (int k = 0; k < 200; k++) {
                 double mid = 0.5 * (lo + hi);
@@ -576,20 +544,23 @@ static long free_split(ReframeSim *s, const double *x, const double *u, double t
                 else
                     hi = mid;
             }
-            return free_too_many(s, ratio, h, lo, free_cause(s, u), r), 0;
+            ffx_step_cause cause = free_step_cause(free_cause(s, u));
+            ffx_step_refusal refusal;
+            ffx_step_refuse(h, ratio, cap, lo, 0.0, &cause, &refusal);
+            return step_refused(r, &refusal), 0;
         }
-        n = (long)ceil(ratio * (1 - 1e-12));
-        if (n < 1) n = 1;
         snprintf(why, sizeof why,
                  "scheme exponential: rotation per internal step <= 0.5 tolerance^(1/4) = %.3g rad "
                  "(|omega| = %.4g rad/s, |alpha| = %.4g rad/s^2, held)",
                  s->theta_max, w, a);
     } else {
-        double ratio = h / s->max_step * (1 - 1e-12);
-        if (!(ratio <= (double)cap))
-            return free_too_many(s, ratio, h, (double)cap * s->max_step, "internal_step", r), 0;
-        n = (long)ceil(ratio);
-        if (n < 1) n = 1;
+        n = ffx_split_step(h, s->max_step, cap);
+        if (n == 0) {
+            ffx_step_cause cause = free_step_cause("internal_step");
+            ffx_step_refusal refusal;
+            ffx_split_refuse(h, s->max_step, cap, &cause, &refusal);
+            return step_refused(r, &refusal), 0;
+        }
         if (s->internal_step > 0)
             snprintf(why, sizeof why, "internal_step = %g s", s->internal_step);
         else
