@@ -14,8 +14,8 @@ from flexfmu.errors import ParameterError
 from flexfmu.ffr.simulator import FFRBeamConfig, FFRBeamSimulator
 from flexfmu.ffr.dynamics import BaseMotion
 from flexfmu.linalg.modal import solve_modes
-from flexfmu.sizing.model_size import (SAFETY_FACTOR, check_band, choose_elements_per_segment, choose_n_modes,
-                                residual_flexibility, truncation_errors)
+from flexfmu.ffr.mesh_choice import choose_elements_per_segment
+from flexfmu.sizing.model_size import SAFETY_FACTOR, check_band, choose_n_modes, residual_flexibility, truncation_errors
 from flexfmu.ffr.scene import load_scene, scene_from_dict
 
 from error_bounds import implementations_bound

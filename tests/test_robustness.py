@@ -107,7 +107,8 @@ def test_ffr_auto_mesh_with_more_modes_than_it_resolves_names_n_modes():
 def test_unreachable_tolerance_states_a_range_that_exists():
     """The refusal's allowed range is one the parameters can take: no "a tolerance above 2" (its range is
     1e-6 .. 0.1)."""
-    from flexfmu.sizing.model_size import TOLERANCE_RANGE, choose_elements_per_segment
+    from flexfmu.ffr.mesh_choice import choose_elements_per_segment
+    from flexfmu.sizing.model_size import TOLERANCE_RANGE
     scene = load_scene("spatial_double_L")
     for f_max, tolerance, max_el in ((3e5, 1e-3, 512), (3e4, 1e-3, 4), (300.0, 1e-5, 2), (2e4, 1e-6, 512)):
         with pytest.raises(ParameterError) as exc:

@@ -19,7 +19,7 @@ from flexfmu.body.model import FlexBody, InterfaceData
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import finite, shown
 from flexfmu.core.io import validate_structure
-from flexfmu.core.structure import Structure
+from flexfmu.core.structure import Structure, node_set
 from flexfmu.errors import ParameterError
 from flexfmu.sizing.interfaces import LoadCase, clamped_modes, free_modes
 
@@ -57,8 +57,6 @@ def clamped_dofs(structure: Structure, clamp) -> tuple[np.ndarray, str]:
 def clamp_from_text(structure: Structure, spec: str | None):
     """A --clamp text -> build_body's clamp: None (default: the file's constrained DOFs when it has some, else
     free), "free", "file", a node-set name, or several joined by commas (their union, added to node_sets)."""
-    from flexfmu.importers import node_set
-
     if spec is None:
         return "file" if len(structure.constrained_dofs) else None
     if "," in spec:                     # several node sets held together, e.g. both bolt holes

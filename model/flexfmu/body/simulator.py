@@ -325,6 +325,12 @@ class FlexBodySimulator:
     def outputs(self) -> dict[str, float]:
         return dict(zip(self.output_names, self.output_vector().tolist()))
 
+    def lti_probe(self):
+        """A clamped body's maps as flexfmu.native.lti's Probe (flexfmu.body.lti_probe), for
+        ``LtiModel.from_clamped_body``: the native FMU's linear system is extracted from them."""
+        from flexfmu.body.lti_probe import clamped_body_probe      # on use: importing the simulator loads no ctypes
+        return clamped_body_probe(self)
+
     # ---- state (JSON)
     def get_state(self) -> dict:
         return {"kind": self.body.kind, **self.engine.get(), "inputs": dict(self.inputs), "config": asdict(self.config)}

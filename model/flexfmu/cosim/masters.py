@@ -1,5 +1,5 @@
-# Over 500 lines on purpose: the system description, the three masters (fmpy, libcosim, ecos) and the
-# coupling-stability analysis share one System object and its connection handling.
+# Over 500 lines on purpose: the three masters (fmpy, libcosim, ecos) and the coupling-stability analysis share
+# one System object (flexfmu.cosim.system) and its connection handling.
 """Co-simulation masters for a system of FMUs described by one OSP system structure file
 (``OspSystemStructure.xml``, the format libcosim reads with ``CosimExecution.from_osp_config_file``).
 
@@ -14,7 +14,9 @@ Four ways to run the same description, all with a fixed communication step h:
 - ``run_libcosim(system, ...)``: DNV's libcosim through libcosimpy on the same file (Jacobi).
 - ``run_ecos(system, ...)``: the ecos engine (ecospy) on the system written as SSP (Jacobi).
 
-A system file is an OSP file or an SSP (``.ssp``; flexfmu.cosim.ssp).
+A system file is an OSP file or an SSP (``.ssp``; flexfmu.cosim.ssp): :func:`load_system` reads either.
+The description itself (SimulatorSpec, System, the OSP file) is flexfmu.cosim.system's; its names are
+importable from here too.
 
 Also here: the linear coupling-stability analysis of the discrete co-simulation
 (``step_limit``), the wave-energy converter's energy audit (``energy_balance``) and the
@@ -25,79 +27,30 @@ from __future__ import annotations
 import csv
 import ctypes
 import importlib
-import os
 import math
 import sys
 import tempfile
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Callable
-from xml.etree import ElementTree as ET
 
 import numpy as np
 
 from flexfmu.core.progress import progress_bar
+from flexfmu.cosim.ssp import PARAMETER_SET, load_ssp, write_ssp
+# SimulatorSpec, System and write_osp live in flexfmu.cosim.system; callers (flexfmu.wec.system, the studies,
+# examples/) import them from here too: kept importable on purpose
+from flexfmu.cosim.system import SimulatorSpec, System, is_ssp_path, load_osp, write_osp
 from flexfmu.fmi.registry import FMUS
 from flexfmu.errors import CosimulationError, ParameterError, require
 
-OSP_NS = "http://opensimulationplatform.com/MSMI/OSPSystemStructure"
 COUPLING_SCHEMES = ("jacobi", "gauss-seidel")   # how the master orders the FMUs in a step
 BACKENDS = ("fmu", "library")
 #: FMU model name -> the flexfmu module it wraps (config class, simulator class, names)
 LIBRARY_MODULES = {spec.name: (spec.module, spec.config, spec.simulator) for spec in FMUS}
 
 
-# ====================================================================== system description
-@dataclass
-class SimulatorSpec:
-    """One FMU instance: name, FMU file, start values of parameters (name -> int/float/str/bool)."""
-
-    name: str
-    source: Path
-    initial_values: dict = field(default_factory=dict)
-
-    @property
-    def model(self) -> str:
-        return self.source.stem
-
-
-@dataclass
-class System:
-    """A system: simulators (in the file's order, the Gauss-Seidel order), connections
-    ((source instance, output), (target instance, input)), start time and base step (s)."""
-
-    simulators: list
-    connections: list
-    base_step: float = 1e-3
-    start_time: float = 0.0
-    path: Path | None = None
-
-    def simulator(self, name: str) -> SimulatorSpec:
-        for s in self.simulators:
-            if s.name == name:
-                return s
-        raise ParameterError("simulator", f"no simulator named {name!r}", ", ".join(s.name for s in self.simulators))
-
-    def by_model(self, model: str) -> list:
-        return [s for s in self.simulators if s.model == model]
-
-    def with_fmu_dir(self, fmu_dir: Path) -> "System":
-        """The same system with every FMU taken from fmu_dir (same file names)."""
-        sims = [replace(s, source=Path(fmu_dir) / s.source.name) for s in self.simulators]
-        return replace(self, simulators=sims)
-
-    def with_values(self, values: dict) -> "System":
-        """The same system with start values changed: {instance: {variable: value}}."""
-        sims = []
-        for s in self.simulators:
-            iv = dict(s.initial_values)
-            iv.update(values.get(s.name, {}))
-            sims.append(replace(s, initial_values=iv))
-        unknown = set(values) - {s.name for s in self.simulators}
-        require(not unknown, "simulator", f"unknown {sorted(unknown)}", ", ".join(s.name for s in self.simulators))
-        return replace(self, simulators=sims)
-
-
+# ====================================================================== start values
 _PYTHON_TYPES = {bool: "Boolean", int: "Integer", float: "Real", str: "String"}
 
 
@@ -154,103 +107,11 @@ def with_assignments(system: System, assignments) -> System:
     return system.with_values(values)
 
 
-def _tag(element) -> str:
-    return element.tag.split("}", 1)[-1]
-
-
-def _children(element, name):
-    return [c for c in element if _tag(c) == name]
-
-
 def load_system(path, fmu_dir=None) -> System:
-    """Read an OspSystemStructure.xml (Simulators with InitialValues, VariableConnections,
-    BaseStepSize, StartTime), or an SSP (``.ssp`` archive, ``.ssd`` file or a folder with
-    SystemStructure.ssd: flexfmu.cosim.ssp.load_ssp).  FMU sources are relative to the file; fmu_dir
-    overrides their folder."""
-    path = Path(path)
-    if path.suffix.lower() in (".ssp", ".ssd") or (path.is_dir() and (path / "SystemStructure.ssd").is_file()):
-        from flexfmu.cosim.ssp import load_ssp
-        return load_ssp(path, fmu_dir=fmu_dir)
-    require(path.is_file(), "SYSTEM_FILE", f"{str(path)!r} not found",
-            "an OspSystemStructure.xml file or an SSP (.ssp)")
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise ParameterError("SYSTEM_FILE", f"{path}: not XML ({exc})",
-                             "an OspSystemStructure.xml file or an SSP (.ssp)") from None
-    require(_tag(root) == "OspSystemStructure", "SYSTEM_FILE", f"{path}: root element is {_tag(root)!r}",
-            "an OspSystemStructure.xml file or an SSP (.ssp)")
-    base_step, start = 1e-3, 0.0
-    sims, conns = [], []
-    for child in root:
-        tag = _tag(child)
-        if tag == "BaseStepSize":
-            base_step = float(child.text)
-        elif tag == "StartTime":
-            start = float(child.text)
-        elif tag == "Algorithm":
-            require(child.text.strip() == "fixedStep", "Algorithm", f"got {child.text.strip()!r}", "fixedStep")
-        elif tag == "Simulators":
-            for s in _children(child, "Simulator"):
-                values = {}
-                for ivs in _children(s, "InitialValues"):
-                    for iv in _children(ivs, "InitialValue"):
-                        (typed,) = list(iv)
-                        kind, text = _tag(typed), typed.get("value")
-                        values[iv.get("variable")] = {"Real": float, "Integer": int, "String": str,
-                                                      "Boolean": lambda v: v.lower() in ("true", "1")}[kind](text)
-                require(s.get("stepSize") is None, "stepSize", f"simulator {s.get('name')}: per-simulator step sizes",
-                        "one common BaseStepSize")
-                sims.append(SimulatorSpec(s.get("name"), (path.parent / s.get("source")).resolve(), values))
-        elif tag == "Connections":
-            for c in child:
-                require(_tag(c) == "VariableConnection", "Connections", f"{_tag(c)} is not supported",
-                        "VariableConnection")
-                a, b = [(v.get("simulator"), v.get("name")) for v in _children(c, "Variable")]
-                conns.append((a, b))
-    system = System(sims, conns, base_step, start, path)
-    if fmu_dir is not None:
-        system = system.with_fmu_dir(fmu_dir)
-    names = {s.name for s in sims}
-    for a, b in conns:
-        for inst, _ in (a, b):
-            require(inst in names, "VariableConnection", f"unknown simulator {inst!r}", ", ".join(sorted(names)))
-    return system
-
-
-def write_osp(system: System, path, step: float | None = None, relative: bool = False) -> Path:
-    """Write the system as an OspSystemStructure.xml with absolute FMU paths (for libcosim), or paths relative
-    to the file's folder (a file to commit beside its FMUs' build folder)."""
-    path = Path(path)
-    ET.register_namespace("", OSP_NS)
-    q = lambda t: f"{{{OSP_NS}}}{t}"   # noqa: E731
-    root = ET.Element(q("OspSystemStructure"), version="0.1")
-    ET.SubElement(root, q("StartTime")).text = repr(system.start_time)
-    ET.SubElement(root, q("BaseStepSize")).text = repr(float(step if step is not None else system.base_step))
-    ET.SubElement(root, q("Algorithm")).text = "fixedStep"
-    sims = ET.SubElement(root, q("Simulators"))
-    for s in system.simulators:
-        source = Path(s.source).resolve()
-        if relative:
-            source = Path(os.path.relpath(source, path.resolve().parent))
-        el = ET.SubElement(sims, q("Simulator"), name=s.name, source=source.as_posix())
-        if s.initial_values:
-            ivs = ET.SubElement(el, q("InitialValues"))
-            for name, value in s.initial_values.items():
-                iv = ET.SubElement(ivs, q("InitialValue"), variable=name)
-                kind = ("Boolean" if isinstance(value, bool) else "Integer" if isinstance(value, int)
-                        else "Real" if isinstance(value, float) else "String")
-                text = (str(value).lower() if isinstance(value, bool) else repr(value) if isinstance(value, float)
-                        else str(value))
-                ET.SubElement(iv, q(kind), value=text)
-    conns = ET.SubElement(root, q("Connections"))
-    for (sa, va), (sb, vb) in system.connections:
-        c = ET.SubElement(conns, q("VariableConnection"))
-        ET.SubElement(c, q("Variable"), simulator=sa, name=va)
-        ET.SubElement(c, q("Variable"), simulator=sb, name=vb)
-    ET.indent(root, "    ")
-    path.write_bytes(b'<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="utf-8"))
-    return path
+    """Read a system file: an OspSystemStructure.xml (flexfmu.cosim.system.load_osp) or an SSP (``.ssp``
+    archive, ``.ssd`` file or a folder with SystemStructure.ssd: flexfmu.cosim.ssp.load_ssp).  FMU sources
+    are relative to the file; fmu_dir overrides their folder."""
+    return load_ssp(path, fmu_dir=fmu_dir) if is_ssp_path(path) else load_osp(path, fmu_dir=fmu_dir)
 
 
 # ====================================================================== slaves
@@ -657,7 +518,6 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
     log_output_level(CosimLogLevel.ERROR)
     with tempfile.TemporaryDirectory() as tmp:
         if description == "ssp":
-            from flexfmu.cosim.ssp import write_ssp
             ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
             execution = CosimExecution.from_ssp_file(str(ssp), int(round(h * 1e9)))
         else:
@@ -720,8 +580,6 @@ def run_ecos(system: System, t_end: float, step: float | None = None, progress: 
     initialisation are passed to the inputs before the first step; time accumulated, t += h).
     Start values are the SSP's parameter set "start"."""
     from fmpy import read_model_description
-
-    from flexfmu.cosim.ssp import PARAMETER_SET, write_ssp
 
     h = float(system.base_step if step is None else step)
     n = _n_steps(t_end, system.start_time, h)

@@ -1,5 +1,5 @@
 """SSP 1.0 (Modelica Association, System Structure and Parameterization) for the systems of
-flexfmu.cosim.masters: write a ``.ssp`` archive from a System, read one back into a System.
+flexfmu.cosim.system: write a ``.ssp`` archive from a System, read one back into a System.
 
 The one description of a system stays the OSP file (``OspSystemStructure.xml``): ``write_ssp``
 turns the System read from it into a ``.ssp``, so the two cannot drift — the archive is a build
@@ -30,7 +30,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from flexfmu.errors import ParameterError, require
+from flexfmu.cosim.system import SimulatorSpec, System, is_ssp_path, load_osp
+from flexfmu.errors import FlexfmuError, ParameterError, require
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -173,14 +174,12 @@ def _parse_xml(path: Path, what: str):
         raise ParameterError("SYSTEM_FILE", f"{path}: not XML ({exc})", what) from None
 
 
-def load_ssp(path, fmu_dir=None):
+def load_ssp(path, fmu_dir=None) -> System:
     """Read an SSP: a ``.ssp`` archive (extracted to a temporary folder, removed at exit), a folder
     with SystemStructure.ssd, or an ``.ssd`` file.  Components (in the file's order: the
     Gauss-Seidel order) with their FMU sources and the start values of their ParameterBindings
     (inline ParameterValues or .ssv files; later bindings override earlier ones), the connections,
     the start time and the base step (libcosim's osp:FixedStepAlgorithm annotation, else 1 ms)."""
-    from flexfmu.cosim.masters import SimulatorSpec, System
-
     path = Path(path)
     what = "an SSP: a .ssp archive, a folder with SystemStructure.ssd, or an .ssd file"
     require(path.exists(), "SYSTEM_FILE", f"{str(path)!r} not found", what)
@@ -256,16 +255,14 @@ def main(argv=None) -> int:
     import argparse
     import sys
 
-    from flexfmu.cosim.masters import load_system
-    from flexfmu.errors import FlexfmuError
-
     parser = argparse.ArgumentParser(prog="python -m flexfmu.cosim.ssp", description=main.__doc__)
     parser.add_argument("system_file", type=Path)
     parser.add_argument("-o", "--output", type=Path, required=True)
     parser.add_argument("--fmu-dir", type=Path, default=None)
     args = parser.parse_args(argv)
     try:
-        system = load_system(args.system_file, fmu_dir=args.fmu_dir)
+        load = load_ssp if is_ssp_path(args.system_file) else load_osp
+        system = load(args.system_file, fmu_dir=args.fmu_dir)
         print(f"wrote {write_ssp(system, args.output)}")
     except FlexfmuError as exc:
         print(f"flexfmu: error: {exc}", file=sys.stderr)

@@ -41,7 +41,8 @@ from flexfmu.native import step_policy
 from flexfmu.sizing.beam import (ModelChoice, StaticCorrection, TruncationChoice, ffr_load_patterns,
                                  ffr_static_correction, ffr_truncation_errors)
 from flexfmu.sizing.common import SAFETY_FACTOR
-from flexfmu.sizing.mesh import MAX_ELEMENTS_PER_SEGMENT, check_band, choose_elements_per_segment
+from flexfmu.ffr.mesh_choice import choose_elements_per_segment
+from flexfmu.sizing.mesh import MAX_ELEMENTS_PER_SEGMENT, check_band
 from flexfmu.ffr.scene import check_arc_length, load_scene
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew
@@ -431,6 +432,12 @@ class FFRBeamSimulator:
         other._x, other._x_state = None, None
         other._held_input_cache = None
         return other
+
+    def lti_probe(self):
+        """This simulator's maps as flexfmu.native.lti's Probe (flexfmu.ffr.lti_probe), for
+        ``LtiModel.from_ffrbeam``: the native FMU's linear system is extracted from them."""
+        from flexfmu.ffr.lti_probe import ffrbeam_probe      # on use: importing the simulator loads no ctypes code
+        return ffrbeam_probe(self, INPUT_NAMES, OUTPUT_NAMES)
 
     def _add_static_correction(self, Cu: np.ndarray, y: np.ndarray, base: BaseMotion):
         """Residual flexibility (flexfmu.sizing.model_size) in the output maps for the held base rotation:

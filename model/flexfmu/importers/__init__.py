@@ -20,22 +20,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from flexfmu.core.checks import path_exists_as, shown
-from flexfmu.core.structure import Provenance
+from flexfmu.core.structure import Provenance, node_set  # noqa: F401  (node_set: importable from here too)
 from flexfmu.errors import ParameterError
 
 NASTRAN_SUFFIXES = (".bdf", ".nas")
 ANSYS_SUFFIXES = (".full",)
 SOURCES_ALLOWED = ("paper_plate | beam:<scene> | .npz | model .json | mesh (.msh, .inp, .vtu, ...) | "
                    "Nastran .bdf/.nas | MAPDL .full")
-
-
-def node_set(structure, name: str):
-    """The sorted node indices of ``structure``'s node set ``name``; ParameterError listing the sets if absent."""
-    sets = getattr(structure, "node_sets", None) or {}
-    if name not in sets:
-        raise ParameterError("node_set", f"{name!r} is not a node set of {shown(structure.name or 'the model')}",
-                             ", ".join(sorted(sets)) or "none: the model file defines no node sets")
-    return sets[name]
 
 
 def _reject(options: dict, kind: str, allowed=()) -> None:

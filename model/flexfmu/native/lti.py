@@ -1,5 +1,6 @@
-# Over 500 lines on purpose: the model's arrays, their extraction from the two simulators' maps (one probe each) and
-# the ctypes bindings all follow the one layout of csrc/lti_kernels.h, which this module mirrors.
+# Over 500 lines on purpose: the model's arrays, their extraction from a simulator's maps (the probes: one beside each
+# simulator, flexfmu.ffr.lti_probe and flexfmu.body.lti_probe) and the ctypes bindings all follow the one layout of
+# csrc/lti_kernels.h, which this module mirrors.
 """A clamped flexible body on a moving base as the parameter-dependent linear system of csrc/lti_kernels.h, with its
 coefficients taken from the library's own maps, and the C kernel through ctypes.
 
@@ -28,7 +29,6 @@ has no native form (ParameterError naming ``integrator``).
 from __future__ import annotations
 
 import ctypes
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -40,9 +40,9 @@ from flexfmu.native.compiler import CSRC, load_kernels
 SOURCES = (CSRC / "lti_kernels.c",)
 OK, NONFINITE, SINGULAR, BAD_ARGUMENT = 0, 1, 2, 3
 AXES = ("x", "y", "z")
-_BASE_W = tuple(f"base_w_{a}" for a in AXES)
-_BASE_DW = tuple(f"base_dw_{a}" for a in AXES)
-_BASE_A = tuple(f"base_a_{a}" for a in AXES)
+BASE_W = tuple(f"base_w_{a}" for a in AXES)
+BASE_DW = tuple(f"base_dw_{a}" for a in AXES)
+BASE_A = tuple(f"base_a_{a}" for a in AXES)
 #: a constructor refuses a model whose coefficients reproduce the library's maps worse than this (relative)
 FIT_TOLERANCE = 1e-9
 #: sample offsets of the base motion (rad/s, rad/s^2, m/s^2): large enough that the p-dependent part is not lost to
@@ -222,23 +222,39 @@ class LtiModel:
 
     # ---- constructors from the library's simulators
     @classmethod
+    def from_simulator(cls, simulator, kind: str | None = None) -> "LtiModel":
+        """The model of a simulator that describes its maps: ``simulator.lti_probe()`` returns the :class:`Probe`
+        (FFRBeamSimulator: flexfmu.ffr.lti_probe; FlexBodySimulator: flexfmu.body.lti_probe).  This module imports
+        no simulator: each probe lives beside its simulator (native sits below ffr and body, docs/architecture.md,
+        "Layers").  ``kind``: the probe's model_kind asked for (ParameterError naming ``simulator`` otherwise)."""
+        lti_probe = getattr(simulator, "lti_probe", None)
+        if lti_probe is None:
+            raise ParameterError("simulator", f"a {type(simulator).__name__} has no linear form here",
+                                 "an FFRBeamSimulator or a clamped body's FlexBodySimulator")
+        probe = lti_probe()
+        if kind is not None and probe.model_kind != kind:
+            raise ParameterError("simulator", f"a {probe.model_kind} simulator", f"a {kind} simulator")
+        return extract(probe)
+
+    @classmethod
     def from_ffrbeam(cls, simulator) -> "LtiModel":
         """The model of an FFRBeamSimulator (flexfmu.ffr.simulator): x = [eta; eta_dot], u = [F, M, base_a] (body
         frame, at load_s), p = (damping_ratio, base_w, base_dw) and with geometric stiffening also base_a; outputs
         OUTPUT_NAMES (all 25, with the static correction when the simulator has one).  Integrator "exact" only."""
-        return _from_ffrbeam(simulator)
+        return cls.from_simulator(simulator, "FFRBeam")
 
     @classmethod
     def from_clamped_body(cls, simulator) -> "LtiModel":
         """The model of a clamped body's FlexBodySimulator (flexfmu.body.simulator): x = [eta; eta_d], u = the
         interface loads and base_a, p = (damping_ratio, base_w, base_dw); outputs the simulator's output_names."""
-        return _from_clamped_body(simulator)
+        return cls.from_simulator(simulator, "clamped body")
 
 
 # ---------------------------------------------------------------------------------------------- extraction
 @dataclass
-class _Probe:
-    """What the extraction evaluates: the library's maps at p and its outputs at (x, FMU inputs, p)."""
+class Probe:
+    """What the extraction evaluates: the library's maps at p and its outputs at (x, FMU inputs, p).  A simulator
+    with a native linear form returns its own from ``lti_probe()`` (flexfmu.ffr.lti_probe, flexfmu.body.lti_probe)."""
 
     model_kind: str
     input_names: tuple
@@ -259,7 +275,7 @@ class _Probe:
     mono_quadratic: object = None
 
 
-def _samples(offsets):
+def sample_points(offsets):
     """The sample points of p: 0, a_i e_i, b_i e_i, a_i e_i + a_j e_j (i < j)."""
     n = len(offsets)
     pts = [np.zeros(n)]
@@ -276,8 +292,8 @@ def _samples(offsets):
     return pts
 
 
-def _fit(values, offsets) -> np.ndarray:
-    """Coefficients (nmono, ...) of the quadratic that takes ``values`` (in the order of _samples) at the sample
+def fit_quadratic(values, offsets) -> np.ndarray:
+    """Coefficients (nmono, ...) of the quadratic that takes ``values`` (in the order of sample_points) at the sample
     points: along each axis from f(0), f(a), f(b) (the 2x2 system solved in closed form); the mixed ones from
     f(a_i e_i + a_j e_j) - f(a_i e_i) - f(a_j e_j) + f(0) = c_ij a_i a_j."""
     n = len(offsets)
@@ -304,7 +320,7 @@ def _fit(values, offsets) -> np.ndarray:
     return np.array(out)
 
 
-def _inputs_of(probe: _Probe, u, p) -> np.ndarray:
+def inputs_of(probe: Probe, u, p) -> np.ndarray:
     """The FMU input vector with u and the input-fed p; where both feed one input (base_a with geometric
     stiffening) u's value wins (the callers keep them equal)."""
     v = np.zeros(len(probe.input_names))
@@ -314,21 +330,21 @@ def _inputs_of(probe: _Probe, u, p) -> np.ndarray:
     return v
 
 
-def _p_of(probe: _Probe, v, p_params) -> np.ndarray:
+def p_of(probe: Probe, v, p_params) -> np.ndarray:
     p = np.array(p_params, dtype=float)
     fed = probe.p_from_input >= 0
     p[fed] = v[probe.p_from_input[fed]]
     return p
 
 
-def _extract(probe: _Probe, rng_seed: int = 20261121) -> LtiModel:
+def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
     n_p = len(probe.param_names)
     nmono = n_monomials(n_p)
-    pts = _samples(probe.offsets)
+    pts = sample_points(probe.offsets)
     dyn = [probe.dynamics(p) for p in pts]
     outs = [probe.output_maps(p) for p in pts]
-    A, B, b = (_fit(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
-    Cx, Cu, y0 = (_fit(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
+    A, B, b = (fit_quadratic(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
+    Cx, Cu, y0 = (fit_quadratic(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
     nx, nu, ny = A.shape[1], B.shape[2], y0.shape[1]
 
     mono_terms = []                                   # (row, a, b, v) over mono indices
@@ -359,8 +375,8 @@ def _extract(probe: _Probe, rng_seed: int = 20261121) -> LtiModel:
 
     def residual(w):
         x, u = w[:nx], w[nx:]
-        v = _inputs_of(probe, u, np.where(probe.p_from_input >= 0, 0.0, p_par))
-        p = _p_of(probe, v, p_par)
+        v = inputs_of(probe, u, np.where(probe.p_from_input >= 0, 0.0, p_par))
+        p = p_of(probe, v, p_par)
         y = probe.outputs(x, v, p)
         lin = linear_part(x, u, p)
         return y - lin, np.abs(y) + np.abs(lin)
@@ -410,7 +426,7 @@ def _rel(a, b) -> float:
     return float(np.max(np.abs(a - b), initial=0.0)) / scale
 
 
-def _check(model: LtiModel, probe: _Probe, rng) -> dict:
+def _check(model: LtiModel, probe: Probe, rng) -> dict:
     """Largest relative differences (per matrix, relative to its largest entry; outputs per row) between the model
     and the library at random p (base rotation up to ~ 3 rad/s, 10 rad/s^2, damping in [0, 0.5)) and (x, u)."""
     err = {"A": 0.0, "B": 0.0, "b": 0.0, "outputs": 0.0}
@@ -422,8 +438,8 @@ def _check(model: LtiModel, probe: _Probe, rng) -> dict:
             err[name] = max(err[name], _rel(mine, lib))
         x = rng.standard_normal(model.nx) * 1e-3
         u = rng.standard_normal(model.nu)
-        v = _inputs_of(probe, u, p)
-        p = _p_of(probe, v, p)                          # base_a: u's (as the FMU feeds both)
+        v = inputs_of(probe, u, p)
+        p = p_of(probe, v, p)                          # base_a: u's (as the FMU feeds both)
         y_lib = probe.outputs(x, v, p)
         y = model.outputs(x, u, p)
         # per output, relative to that output's size over the parts that make it up
@@ -434,160 +450,6 @@ def _check(model: LtiModel, probe: _Probe, rng) -> dict:
         if np.any(ok):
             err["outputs"] = max(err["outputs"], float(np.max(np.abs(y - y_lib)[ok] / scale[ok])))
     return err
-
-
-# ---------------------------------------------------------------------------------------------- FFRBeam
-def _from_ffrbeam(sim) -> LtiModel:
-    from flexfmu.ffr.dynamics import BaseMotion
-    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES, FFRBeamSimulator
-
-    dyn0 = sim.dynamics
-    if dyn0.integrator != "exact":
-        raise ParameterError("integrator", f"got {dyn0.integrator!r}: the native kernel advances only the exact "
-                                           "zero-order hold", "exact")
-    gs = bool(dyn0.geometric_stiffening)
-    index = {name: k for k, name in enumerate(INPUT_NAMES)}
-    param_names = ("damping_ratio", *_BASE_W, *_BASE_DW, *(_BASE_A if gs else ()))
-    p_from_input = np.array([-1] + [index[n] for n in param_names[1:]])
-    u_from_input = np.arange(9)
-    p_start = np.zeros(len(param_names))
-    p_start[0] = dyn0.damping_ratio
-    m = dyn0.m
-    copies = {}
-
-    def at(zeta: float):
-        zeta = float(zeta)
-        if zeta not in copies:
-            copies[zeta] = sim.with_damping(zeta)
-        return copies[zeta]
-
-    def base_of(p, a0=None):
-        p = np.asarray(p, float)
-        if a0 is None:
-            a0 = p[7:10] if gs else np.zeros(3)
-        return BaseMotion(a0=np.array(a0, float), omega=p[1:4].copy(), alpha=p[4:7].copy())
-
-    def dynamics(p):
-        d = at(p[0]).dynamics
-        A = d.system_matrix(base_of(p))
-        zero = np.zeros(3)
-        f0 = d.modal_force(zero, zero, base_of(p, zero))          # K_eff's a0 is p's, the load's a0 is u's
-        B = np.zeros((2 * m, 9))
-        b = np.zeros(2 * m)
-        b[m:] = f0
-        for j in range(9):
-            e = np.zeros(9)
-            e[j] = 1.0
-            B[m:, j] = d.modal_force(e[0:3], e[3:6], base_of(p, e[6:9])) - f0
-        return A, B, b
-
-    def output_maps(p):
-        s = at(p[0])
-        s.set_input_vector(_inputs_of(probe, np.r_[np.zeros(6), p[7:10] if gs else np.zeros(3)], p))
-        maps = s._maps(None)
-        Cu = maps.Cu.copy()
-        if maps.energy is not None:
-            Cu[-1] += maps.energy[1]          # the static correction's energy: u-linear part (the u-u part: quads)
-        return maps.Cx.copy(), Cu, maps.y0.copy()
-
-    def outputs(x, v, p):
-        from flexfmu.ffr.dynamics import ModalState
-        s = at(p[0])
-        s.set_input_vector(v)
-        s.state = ModalState(np.array(x[:m], float), np.array(x[m:], float), 0.0)
-        return s.output_vector().copy()
-
-    mono_quadratic = None
-    n_p = len(param_names)
-    offsets = [(0.25, 0.5)] + [(BASE_OFFSET, -BASE_OFFSET)] * (n_p - 1)
-    if sim.static_correction is not None:
-        # 1/2 X_ab^T R X_ab (R: the correction's energy matrix on the rotation patterns) with X_ab = T mono(p):
-        # T fitted from the library's X_ab (FFRBeamSimulator.static_correction_weights)
-        pts = _samples(offsets)
-        T = _fit(np.array([FFRBeamSimulator.static_correction_weights(base_of(p)) for p in pts]), offsets).T
-        R = np.asarray(sim.static_correction.energy, float)[9:, 9:]
-        V = [None] * len(OUTPUT_NAMES)
-        V[OUTPUT_NAMES.index("elastic_energy")] = 0.5 * T.T @ R @ T
-        mono_quadratic = V
-
-    probe = _Probe("FFRBeam", INPUT_NAMES, param_names, OUTPUT_NAMES, u_from_input, p_from_input, p_start,
-                   dynamics, output_maps, outputs, offsets, mono_quadratic)
-    return _extract(probe)
-
-
-# ---------------------------------------------------------------------------------------------- clamped body
-def _from_clamped_body(sim) -> LtiModel:
-    from flexfmu.body.simulator import FlexBodySimulator
-
-    body = sim.body
-    if body.kind != "clamped":
-        raise ParameterError("body", f"a {body.kind} body", "a clamped body (flexfmu.body: build_body(clamp=...))")
-    names = tuple(sim.input_names)
-    index = {name: k for k, name in enumerate(names)}
-    param_names = ("damping_ratio", *_BASE_W, *_BASE_DW)
-    p_from_input = np.array([-1] + [index[n] for n in param_names[1:]])
-    u_from_input = np.array([k for k, n in enumerate(names) if n not in param_names])
-    zeta0 = float(sim.engine.dyn.zeta)
-    p_start = np.zeros(len(param_names))
-    p_start[0] = zeta0
-    m = sim.engine.dyn.m
-    copies = {}
-
-    def at(zeta: float):
-        zeta = float(zeta)
-        if zeta not in copies:
-            copies[zeta] = FlexBodySimulator(body, dataclasses.replace(sim.config, damping_ratio=zeta))
-        return copies[zeta]
-
-    def dynamics(p):
-        s = at(p[0])
-        e = s.engine
-        d = e.dyn
-        v = _inputs_of(probe, np.zeros(len(u_from_input)), p)
-        s.set_input_vector(v)
-        A = d.system_matrix(e.w, e.alpha)
-        f0 = d.modal_force(e.loads, e.a0, e.w, e.alpha)
-        B = np.zeros((2 * m, len(u_from_input)))
-        b = np.zeros(2 * m)
-        b[m:] = f0
-        for j in range(len(u_from_input)):
-            u = np.zeros(len(u_from_input))
-            u[j] = 1.0
-            s.set_input_vector(_inputs_of(probe, u, p))
-            B[m:, j] = d.modal_force(e.loads, e.a0, e.w, e.alpha) - f0
-        return A, B, b
-
-    def outputs(x, v, p):
-        s = at(p[0])
-        state = s.get_state()
-        state["x"] = np.asarray(x, float).tolist()
-        state["inputs"] = dict(zip(names, np.asarray(v, float).tolist()))
-        s.set_state(state)
-        return s.output_vector().copy()
-
-    def output_maps(p):
-        """Central differences of the outputs in x (u = 0) and in u (x = 0): exact for outputs affine in each
-        (terms quadratic in x or in u cancel, those in x and u vanish)."""
-        nx, nu = 2 * m, len(u_from_input)
-        v0 = _inputs_of(probe, np.zeros(nu), p)
-        zx = np.zeros(nx)
-        y0 = outputs(zx, v0, p)
-        Cx = np.zeros((y0.size, nx))
-        Cu = np.zeros((y0.size, nu))
-        for a in range(nx):
-            e = np.zeros(nx)
-            e[a] = 1.0
-            Cx[:, a] = 0.5 * (outputs(e, v0, p) - outputs(-e, v0, p))
-        for j in range(nu):
-            e = np.zeros(nu)
-            e[j] = 1.0
-            Cu[:, j] = 0.5 * (outputs(zx, _inputs_of(probe, e, p), p) - outputs(zx, _inputs_of(probe, -e, p), p))
-        return Cx, Cu, y0
-
-    offsets = [(0.25, 0.5)] + [(BASE_OFFSET, -BASE_OFFSET)] * (len(param_names) - 1)
-    probe = _Probe("clamped body", names, param_names, tuple(sim.output_names), u_from_input, p_from_input, p_start,
-                   dynamics, output_maps, outputs, offsets, None)
-    return _extract(probe)
 
 
 # ---------------------------------------------------------------------------------------------- ctypes

@@ -1,18 +1,20 @@
 """Elements per segment of an FFR beam for a frequency band and a tolerance: the convergence of the frequencies
-(Richardson, Eq. (R) of flexfmu.sizing.model_size) and the a-priori refusal of bands the finest mesh cannot resolve."""
+(Richardson, Eq. (R) of flexfmu.sizing.model_size) and the a-priori refusal of bands the finest mesh cannot resolve.
+
+This module knows the estimates, not the beam model: a ``scene`` is read for its section, material and segment
+lengths (a flexfmu.ffr.scene.Scene), and the meshes' frequencies come from the caller
+(:func:`converge_elements_per_segment`'s ``mesh_frequencies``); flexfmu.ffr.mesh_choice supplies them for the FFR
+beam model (sizing sits below ffr: docs/architecture.md, "Layers")."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from flexfmu.core.checks import finite
 from flexfmu.errors import FlexfmuError, ParameterError, require
-from flexfmu.ffr.assembly import build_beam_model
-from flexfmu.ffr.scene import Scene
-from flexfmu.linalg.cutoffs import MESH_SCAN_DENSE_MAX_DOF
-from flexfmu.linalg.modal import solve_modes
 from flexfmu.sizing.common import SAFETY_FACTOR
 
 CONVERGENCE_ORDER = 4               # h^4: Euler-Bernoulli Hermite cubics, frequency (eigenvalue) error
@@ -92,7 +94,7 @@ ROUNDOFF_CEILING = 1e-3
 MAX_BAND_MODES = 200
 
 
-def _wave_numbers(scene: Scene, f_hz: float) -> dict:
+def _wave_numbers(scene, f_hz: float) -> dict:
     """Wave numbers (1/m) of the rod's axial, torsional and bending waves at f_hz (Euler-Bernoulli)."""
     sec, mat = scene.section, scene.material
     w = 2.0 * math.pi * f_hz
@@ -101,7 +103,7 @@ def _wave_numbers(scene: Scene, f_hz: float) -> dict:
             "bending": math.sqrt(w) * (mat.rho * sec.A / (mat.E * min(sec.Iy, sec.Iz))) ** 0.25}
 
 
-def wave_errors(scene: Scene, f_hz: float, h: float) -> dict:
+def wave_errors(scene, f_hz: float, h: float) -> dict:
     """Relative frequency error of each wave type at f_hz on elements of length h: (kh)^2 / 24 for the linear
     axial and torsional elements, (kh)^4 / 1440 for the Hermite bending element (consistent mass; both within a
     few % of the measured errors of a straight cantilever's modes up to kh ~ 1)."""
@@ -110,14 +112,14 @@ def wave_errors(scene: Scene, f_hz: float, h: float) -> dict:
             "bending": (k["bending"] * h) ** 4 / 1440.0}
 
 
-def estimated_mode_count(scene: Scene, f_hz: float) -> float:
+def estimated_mode_count(scene, f_hz: float) -> float:
     """Modes below f_hz, Weyl's estimate L k / pi per wave type (bending in two planes), L the rod's length
     (118 against 118 computed for the spatial double-L at 100 kHz)."""
     k = _wave_numbers(scene, f_hz)
     return scene.total_length / math.pi * (k["axial"] + k["torsional"] + 2.0 * k["bending"])
 
 
-def _frequency_of_mode(scene: Scene, n: int) -> float:
+def _frequency_of_mode(scene, n: int) -> float:
     """Estimated frequency (Hz) of mode n (the inverse of estimated_mode_count; bisection in log f)."""
     lo, hi = 1e-6, 1e12
     for _ in range(100):                                  # fixed count: 1e-6 .. 1e12 to ~1e-10 relative
@@ -126,7 +128,7 @@ def _frequency_of_mode(scene: Scene, n: int) -> float:
     return hi
 
 
-def resolved_band(scene: Scene, tolerance: float, elements_per_segment: int,
+def resolved_band(scene, tolerance: float, elements_per_segment: int,
                   safety_factor: float = SAFETY_FACTOR) -> float:
     """Estimated highest frequency (Hz) that ``elements_per_segment`` resolve to ``tolerance``: where the worst
     wave's error (:func:`wave_errors` on the longest segment's elements) times safety_factor reaches it."""
@@ -139,7 +141,7 @@ def resolved_band(scene: Scene, tolerance: float, elements_per_segment: int,
     return lo
 
 
-def check_resolvable(scene: Scene, f_max: float, tolerance: float, min_modes: int = 1,
+def check_resolvable(scene, f_max: float, tolerance: float, min_modes: int = 1,
                      max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT, safety_factor: float = SAFETY_FACTOR,
                      min_modes_parameter: str = "min_modes") -> None:
     """Fast refusal (ParameterError) of a band that the mesh sequence could not resolve, or only after minutes:
@@ -196,17 +198,21 @@ def check_resolvable(scene: Scene, f_max: float, tolerance: float, min_modes: in
                          f"safety); it resolves up to about {limit:.3g} Hz", ", or ".join(options))
 
 
-def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, tolerance: float, *,
-                                extra_arc_lengths=(), min_modes: int = 1,
-                                max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT,
-                                safety_factor: float = SAFETY_FACTOR,
-                                min_modes_parameter: str = "min_modes") -> MeshChoice:
+#: mesh_frequencies(elements_per_segment, n_modes) -> (the mesh's lowest min(n_modes, n_free) natural frequencies
+#: in Hz, ascending; n_free, the mesh's number of free DOFs)
+MeshFrequencies = Callable[[int, int], "tuple[np.ndarray, int]"]
+
+
+def converge_elements_per_segment(scene, mesh_frequencies: MeshFrequencies, f_max: float, tolerance: float, *,
+                                  min_modes: int = 1, max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT,
+                                  safety_factor: float = SAFETY_FACTOR,
+                                  min_modes_parameter: str = "min_modes") -> MeshChoice:
     """Smallest elements per segment whose frequencies below f_max (and the first ``min_modes``,
     whatever their frequency) are within ``tolerance`` (relative) of the converged ones, estimated
-    as in flexfmu.sizing.model_size's docstring.  The meshes are built as flexfmu.ffr.assembly.build_beam_model does
-    for the model itself (same boundary and extra nodes).  A band far beyond what
-    ``max_elements_per_segment`` can resolve is refused up front (:func:`check_resolvable`, naming f_max or
-    ``min_modes_parameter``)."""
+    as in flexfmu.sizing.model_size's docstring.  ``mesh_frequencies`` solves the meshes (:data:`MeshFrequencies`;
+    for the FFR beam flexfmu.ffr.mesh_choice.choose_elements_per_segment passes the model's own, same boundary and
+    extra nodes).  A band far beyond what ``max_elements_per_segment`` can resolve is refused up front
+    (:func:`check_resolvable` on ``scene``, naming f_max or ``min_modes_parameter``)."""
     check_band(f_max, tolerance)
     require(isinstance(min_modes, (int, np.integer)) and min_modes >= 1, "min_modes", f"got {min_modes!r}",
             "an integer >= 1")
@@ -220,11 +226,8 @@ def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, toler
     def frequencies(n: int) -> np.ndarray:
         """Lowest n_wanted frequencies of the mesh (all of them if it has fewer free DOFs)."""
         if n not in solved or (len(solved[n]) < n_wanted and n not in complete):
-            model = build_beam_model(scene, boundary, int(n), extra_arc_lengths=tuple(extra_arc_lengths))
-            k = min(n_wanted, model.n_free)
-            method = "dense" if model.n_free <= MESH_SCAN_DENSE_MAX_DOF or k >= model.n_free - 1 else "sparse"
-            solved[n] = solve_modes(model.K_free, model.M_free, k, method=method).frequencies_hz
-            if k == model.n_free:
+            solved[n], n_free = mesh_frequencies(int(n), n_wanted)
+            if n_wanted >= n_free:                    # every mode of the mesh solved
                 complete.add(n)
         return solved[n]
 

@@ -61,15 +61,16 @@ Given a frequency band of interest (0 .. f_max) and a relative tolerance:
   the nine base-rotation patterns (-P_ab, multiplied by X_ab); see :func:`ffr_load_patterns`.
 """
 # The implementation is split by side; this module keeps the equations above and every name: common (shared
-# estimates), mesh and beam (FFRBeam: mesh, modes, static correction), solid (ReframeBody's basis).
+# estimates), mesh and beam (FFRBeam: mesh, modes, static correction), solid (ReframeBody's basis).  The FFR beam's
+# mesh choice on its own model is flexfmu.ffr.mesh_choice.choose_elements_per_segment (sizing sits below ffr).
 from flexfmu.sizing.beam import (FFR_LOAD_GROUPS, LOAD_PATTERN_NAMES, ModelChoice, StaticCorrection,
                                  TruncationChoice, ffr_load_patterns, ffr_static_correction, ffr_truncation_errors,
                                  residual_flexibility)
 from flexfmu.sizing.common import SAFETY_FACTOR, TruncationEstimate, dynamic_error_factor, truncation_errors
 from flexfmu.sizing.mesh import (A_PRIORI_MARGIN, CONVERGENCE_ORDER, MAX_BAND_MODES, MAX_ELEMENTS_PER_SEGMENT,
-                                 ROUNDOFF_CEILING, TOLERANCE_RANGE, MeshChoice, check_band, check_resolvable,
-                                 choose_elements_per_segment, choose_n_modes, estimated_mode_count, resolved_band,
-                                 richardson, wave_errors)
+                                 ROUNDOFF_CEILING, TOLERANCE_RANGE, MeshChoice, MeshFrequencies, check_band,
+                                 check_resolvable, choose_n_modes, converge_elements_per_segment,
+                                 estimated_mode_count, resolved_band, richardson, wave_errors)
 from flexfmu.sizing.mesh import _FIRST_MODES_SOLVED, _frequency_of_mode, _unreachable, _wave_numbers  # noqa: F401
 from flexfmu.sizing.solid import (MAX_AUTO_MODES, BasisChoice, ModeSearch, auto_basis, kept_message, load_point_rows,
                                   modal_compliance, mode_search, reframe_truncation_errors, residual_vectors,
@@ -78,9 +79,9 @@ from flexfmu.sizing.solid import _SHIFT, _select, _static_error, _with_frequenci
 
 __all__ = ["A_PRIORI_MARGIN", "CONVERGENCE_ORDER", "FFR_LOAD_GROUPS", "LOAD_PATTERN_NAMES", "MAX_AUTO_MODES",
            "MAX_BAND_MODES", "MAX_ELEMENTS_PER_SEGMENT", "ROUNDOFF_CEILING", "SAFETY_FACTOR", "TOLERANCE_RANGE",
-           "BasisChoice", "MeshChoice", "ModeSearch", "ModelChoice", "StaticCorrection", "TruncationChoice",
-           "TruncationEstimate",
-           "auto_basis", "check_band", "check_resolvable", "choose_elements_per_segment", "choose_n_modes",
+           "BasisChoice", "MeshChoice", "MeshFrequencies", "ModeSearch", "ModelChoice", "StaticCorrection",
+           "TruncationChoice", "TruncationEstimate",
+           "auto_basis", "check_band", "check_resolvable", "choose_n_modes", "converge_elements_per_segment",
            "dynamic_error_factor", "estimated_mode_count", "ffr_load_patterns", "ffr_static_correction",
            "ffr_truncation_errors", "kept_message", "load_point_rows", "modal_compliance", "mode_search",
            "reframe_truncation_errors", "residual_flexibility", "residual_vectors", "resolved_band", "richardson",
