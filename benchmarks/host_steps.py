@@ -9,7 +9,7 @@ by the step size take such variants as one step (flexfmu.core.step_size), so bot
 
 Host: examples/c_host/fmi2_host.c, with and without ``--clock-steps`` (its own CLOCK_MONOTONIC timer around the
 stepping loop: fmi2SetReal of the held force inputs, fmi2DoStep, fmi2GetReal of up to six outputs), in a bare
-environment (PATH and HOME only).  Each figure is the best of three runs of the same process, the two hosts
+environment (PATH and HOME only).  Each figure is the best of --repeats runs of the same process, the two hosts
 interleaved; the ratio is clock / constant from this one run.  Speed is measured here only, never asserted in
 tests; tests/test_step_size.py checks that both hosts compute the same numbers.
 """
@@ -102,6 +102,7 @@ def build_fmus(out: Path, quick: bool) -> list[tuple[str, str, Path, int, float,
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="a fifth of the cycles (a smoke run)")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per FMU and host; the best counts")
     parser.add_argument("--out", type=Path, help="also write the table as Markdown to this file")
     parser.add_argument("--fmusim", type=Path, help="also the 60 s hammer record in this fmusim beside a no-op FMU "
                                                     "(benchmarks/fmusim_hammer.py; build fmusim with "
@@ -116,7 +117,7 @@ def main(argv=None) -> int:
                  "|---|---|---|---|---|"]
         for kind, runtime, fmu, cycles, step, start in build_fmus(tmp / "fmus", args.quick):
             best = {False: float("inf"), True: float("inf")}
-            for _ in range(3):
+            for _ in range(args.repeats):
                 for clock in (False, True):
                     best[clock] = min(best[clock], host_cycle(host, fmu, cycles, step, tmp, clock, start))
             line = (f"| {kind} | {runtime} | {best[False]:.2f} | {best[True]:.2f} | "
