@@ -133,7 +133,9 @@ REENTRANT_HOST = textwrap.dedent('''
     sys.path.insert(0, {tests!r})
     from fmu_helpers import Instance
 
-    inst = Instance({fmu!r}, "reentrant").initialize()
+    inst = Instance({fmu!r}, "reentrant")
+    if {initialise!r}:
+        inst.initialize()
     answers = []
 
     class CallingBack(list):
@@ -157,11 +159,15 @@ REENTRANT_HOST = textwrap.dedent('''
 ''')
 
 
+@pytest.mark.parametrize("initialise", [True, False], ids=["step at a wrong time", "step out of sequence"])
 @pytest.mark.parametrize("runtime", ["python", "native"])
-def test_a_logger_that_calls_back_is_refused_and_never_deadlocks(ffrbeams, runtime, tmp_path):
-    """In a child process with a time limit, so a deadlock fails the test instead of hanging the suite."""
+def test_a_logger_that_calls_back_is_refused_and_never_deadlocks(ffrbeams, runtime, initialise, tmp_path):
+    """In a child process with a time limit, so a deadlock fails the test instead of hanging the suite.  The step is
+    refused by the bridge (a wrong communication point) or by the front's call-sequence table (before
+    initialisation): both log, and the logger's call back is refused and reported either way."""
     script = tmp_path / "host.py"
-    script.write_text(REENTRANT_HOST.format(tests=str(Path(__file__).parent), fmu=str(ffrbeams[runtime])))
+    script.write_text(REENTRANT_HOST.format(tests=str(Path(__file__).parent), fmu=str(ffrbeams[runtime]),
+                                            initialise=initialise))
     run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-3000:]
     out = run.stdout

@@ -250,6 +250,8 @@ static void unlock(Instance *inst) {
     pthread_mutex_unlock(&inst->lock);
 }
 
+static fmi2Status leave(Instance *inst, int status);
+
 /* Check the instance pointer and the call sequence; lock the instance. */
 static Instance *enter(fmi2Component c, Function f, fmi2Status *refused) {
     Instance *inst = c;
@@ -272,7 +274,7 @@ static Instance *enter(fmi2Component c, Function f, fmi2Status *refused) {
     } else {
         return inst;
     }
-    unlock(inst);
+    leave(inst, fmi2Error); /* a call its logger made while it was refused is reported too */
     return NULL;
 }
 
