@@ -360,3 +360,27 @@ def test_register_refuses_what_is_not_an_element(registry):
     with pytest.raises(ValueError, match="2 nodes x 6 DOFs"):
         register(ThreeNodes)
     assert "test_three_nodes" not in registry.ELEMENTS
+
+
+def test_the_automatic_mesh_extrapolates_with_the_elements_own_order():
+    """The mesh choice estimates each mesh's error by Richardson extrapolation of two meshes, which needs the
+    element's convergence order: 4 for Euler-Bernoulli, 2 for Timoshenko (measured above).  With the element's
+    order the chosen mesh's frequencies below f_max are within the tolerance (a cantilever, L/d = 5)."""
+    from flexfmu.ffr.mesh_choice import choose_elements_per_segment
+    scene = straight_rod(length=1.0, diameter=0.2, element="timoshenko", clamps=[0.0])
+    tolerance = 1e-3
+    f_max = 3000.0
+    choice = choose_elements_per_segment(scene, "scene", f_max, tolerance)
+    assert choice.order == get_element("timoshenko").convergence_order == 2
+    eb_choice = choose_elements_per_segment(straight_rod(length=1.0, diameter=0.2, clamps=[0.0]), "scene", f_max, tolerance)
+    assert eb_choice.order == 4
+    # the clamped rod's modes below f_max: the chosen mesh against one 16 x finer of the same element (error O(h^2):
+    # the finer mesh keeps 1/256 of the chosen mesh's error, so the difference is the chosen mesh's error to 0.4 %)
+    from flexfmu.ffr.mesh_choice import mesh_frequencies
+    solve = mesh_frequencies(scene, "scene", ())
+    chosen_hz, _ = solve(choice.elements_per_segment, 12)
+    reference_hz, _ = solve(16 * choice.elements_per_segment, 12)
+    k = int(np.count_nonzero(reference_hz < f_max))
+    assert k >= 1
+    true_errors = np.abs(chosen_hz[:k] - reference_hz[:k]) / reference_hz[:k]
+    assert np.all(true_errors <= tolerance), (choice.elements_per_segment, true_errors)

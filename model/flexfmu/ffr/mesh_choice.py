@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from flexfmu.ffr.assembly import build_beam_model
+from flexfmu.ffr.elements import get_element
 from flexfmu.ffr.scene import Scene
 from flexfmu.linalg.cutoffs import MESH_SCAN_DENSE_MAX_DOF
 from flexfmu.linalg.modal import solve_modes
@@ -39,4 +40,5 @@ def choose_elements_per_segment(scene: Scene, boundary: str, f_max: float, toler
     return converge_elements_per_segment(scene, mesh_frequencies(scene, boundary, extra_arc_lengths), f_max,
                                          tolerance, min_modes=min_modes,
                                          max_elements_per_segment=max_elements_per_segment,
-                                         safety_factor=safety_factor, min_modes_parameter=min_modes_parameter)
+                                         safety_factor=safety_factor, min_modes_parameter=min_modes_parameter,
+                                         order=get_element(scene.element).convergence_order)

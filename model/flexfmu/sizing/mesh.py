@@ -206,13 +206,15 @@ MeshFrequencies = Callable[[int, int], "tuple[np.ndarray, int]"]
 def converge_elements_per_segment(scene, mesh_frequencies: MeshFrequencies, f_max: float, tolerance: float, *,
                                   min_modes: int = 1, max_elements_per_segment: int = MAX_ELEMENTS_PER_SEGMENT,
                                   safety_factor: float = SAFETY_FACTOR,
-                                  min_modes_parameter: str = "min_modes") -> MeshChoice:
+                                  min_modes_parameter: str = "min_modes",
+                                  order: int = CONVERGENCE_ORDER) -> MeshChoice:
     """Smallest elements per segment whose frequencies below f_max (and the first ``min_modes``,
     whatever their frequency) are within ``tolerance`` (relative) of the converged ones, estimated
     as in flexfmu.sizing.model_size's docstring.  ``mesh_frequencies`` solves the meshes (:data:`MeshFrequencies`;
     for the FFR beam flexfmu.ffr.mesh_choice.choose_elements_per_segment passes the model's own, same boundary and
     extra nodes).  A band far beyond what ``max_elements_per_segment`` can resolve is refused up front
-    (:func:`check_resolvable` on ``scene``, naming f_max or ``min_modes_parameter``)."""
+    (:func:`check_resolvable` on ``scene``, naming f_max or ``min_modes_parameter``).  ``order``: the frequency
+    error's order in the element size (the beam element's ``convergence_order``), which the extrapolation assumes."""
     check_band(f_max, tolerance)
     require(isinstance(min_modes, (int, np.integer)) and min_modes >= 1, "min_modes", f"got {min_modes!r}",
             "an integer >= 1")
@@ -252,7 +254,7 @@ def converge_elements_per_segment(scene, mesh_frequencies: MeshFrequencies, f_ma
             fine = frequencies(2 * n)
         coarse = frequencies(n)
         common = min(len(coarse), len(fine))
-        extrapolated, errors = richardson(coarse[:common], fine[:common])
+        extrapolated, errors = richardson(coarse[:common], fine[:common], order)
         # below f_max after extrapolation (lower than the fine mesh's) or on the fine mesh
         k = modes_of_interest(np.minimum(extrapolated, fine[:common]))
         if k >= len(fine) and 2 * n not in complete:      # the band may reach beyond the modes solved
@@ -305,7 +307,8 @@ def converge_elements_per_segment(scene, mesh_frequencies: MeshFrequencies, f_ma
                       chosen_hz=np.asarray(frequencies(chosen)[:k], float),
                       relative_errors=np.asarray(chosen_errors, float),
                       n_below_f_max=int(np.count_nonzero(extrapolated < f_max)), reference_meshes=(n_hi, 2 * n_hi),
-                      rejected=rejected, meshes_solved=tuple(sorted(solved)), safety_factor=float(safety_factor))
+                      rejected=rejected, meshes_solved=tuple(sorted(solved)), safety_factor=float(safety_factor),
+                      order=int(order))
 
 
 def _unreachable(text: str, errors, extrapolated, n: int, f_max: float, tolerance: float, safety_factor: float,
