@@ -213,3 +213,15 @@ def test_an_unknown_model_or_a_missing_wave_or_platform_is_refused_by_name():
     two = replace(system, simulators=system.simulators + [replace(system.simulator("harvester"), name="h2")])
     with pytest.raises(ParameterError, match="2 instances of the harvester role"):
         roster(two).one("harvester")
+
+
+def test_the_cli_refuses_a_chart_of_a_system_that_is_not_a_converter_before_running_it(tmp_path, capsys):
+    """--plot on the flexible-barge system: refused up front (no co-simulation is run, no CSV written), naming --plot
+    and, from the roster, the simulator that is not a component."""
+    out = tmp_path / "never.csv"
+    status = cli.main(["cosim", str(ROOT / "examples" / "flexible_barge" / "OspSystemStructure.xml"), "--t-end", "0.1",
+                       "--master", "library", "--out", str(out), "--plot", str(tmp_path / "r.png")])
+    err = capsys.readouterr().err
+    assert status == 2, err
+    assert "plot: the system is not a wave-energy converter" in err and "Barge is not a component" in err, err
+    assert not out.exists()

@@ -26,6 +26,13 @@ def _cosim(args: argparse.Namespace) -> int:
         raise ParameterError("every", f"{args.every}", "integer >= 1")
     if not (math.isfinite(h) and h > 0):
         raise ParameterError("step", f"{h!r}", "finite step > 0 (s)")
+    if args.plot is not None:   # before the run: the chart needs a wave-energy converter's roster
+        try:
+            wec.roster(system)
+        except ParameterError as exc:
+            raise ParameterError("plot", f"the system is not a wave-energy converter: {exc}",
+                                 "a system whose every simulator is a wave-energy converter component (docs/"
+                                 "wave_converter.md), with a wave and a platform") from None
     if not args.no_stability_check:
         try:
             check = cosim.stability_check(system, h, scheme)
@@ -59,9 +66,6 @@ def _cosim(args: argparse.Namespace) -> int:
         result.write_csv(args.out)
         print(f"wrote {args.out} ({result.t.size} rows x {len(result.columns) + 1} columns)")
     if args.plot is not None:
-        if not wec.is_wec(system):
-            raise ParameterError("plot", "the system is not the wave-energy converter", "a system with WaveExcitation, "
-                                 "Platform, Hydrostatics, FFRBeam and PTO")
         print(f"wrote {wec.plot_result(result, system, args.plot)}")
     return 0
 
