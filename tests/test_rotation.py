@@ -1,4 +1,4 @@
-"""Tests of flexfmu.core.rotation (paper Section 2, Eqs. 4-22).
+"""Tests of flexfmu.core.rotation and flexfmu.core.angular_motion (paper Section 2, Eqs. 4-22).
 
 References are exact rigid motions built here with numpy / scipy
 (Rotation, expm); nothing is computed by the code under test.
@@ -12,12 +12,14 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 
 from flexfmu.errors import ParameterError
-from flexfmu.core.rotation import (
+from flexfmu.core.angular_motion import (
     angular_acceleration,
     angular_acceleration_oblique,
     angular_velocity,
     angular_velocity_oblique,
     oblique_basis,
+)
+from flexfmu.core.rotation import (
     paper_skew,
     reparametrize,
     rotation_matrix,

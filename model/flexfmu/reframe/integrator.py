@@ -75,7 +75,8 @@ from typing import NamedTuple
 import numpy as np
 
 from flexfmu.errors import FlexfmuError, ParameterError
-from flexfmu.core.rotation import oblique_basis, quaternion_from_rotation
+from flexfmu.core.angular_motion import oblique_basis
+from flexfmu.core.rotation import quaternion_from_rotation
 from flexfmu.core.structure import N_RIGID, Structure
 from flexfmu.core.step_size import same_step
 # Loads, states / results, the model checks and the baseline live in their own modules; their public

@@ -20,12 +20,8 @@ import numpy as np
 from flexfmu.core.checks import shown
 from flexfmu.errors import FlexfmuError, ParameterError
 from flexfmu.core.structure import N_RIGID
-from flexfmu.core.rotation import (
-    angular_acceleration,
-    angular_velocity,
-    reparametrize,
-    rotvec_from_matrix,
-)
+from flexfmu.core.angular_motion import angular_acceleration, angular_velocity
+from flexfmu.core.rotation import reparametrize, rotvec_from_matrix
 from flexfmu.core.rotation import rodrigues as _rodrigues
 from flexfmu.core.rotation import rotvec_rate_unchecked as _rotvec_rate   # Eqs. (20)-(22), unchecked
 from flexfmu.core.vec3 import cross as _cross
@@ -224,7 +220,7 @@ class PaperScheme(Scheme):
         self._relP = d.Psi[tr[iP], :N_RIGID] - d.Psi[tr[iR], :N_RIGID]    # rigid rel. velocity of P w.r.t. R
         self._relQ = d.Psi[tr[iQ], :N_RIGID] - d.Psi[tr[iR], :N_RIGID]
         # g of Eq. (9) is linear in (v_P/R, v_Q/R) for the fixed dummy-body vectors p, q: tabulate it
-        # once with flexfmu.core.rotation.angular_velocity (columns = responses to unit inputs).  h of Eq.
+        # once with flexfmu.core.angular_motion.angular_velocity (columns = responses to unit inputs).  h of Eq.
         # (14) is the same map applied to (a_P/R - omega x v_P/R, a_Q/R - omega x v_Q/R).
         E = np.eye(6)
         self._gmap = np.column_stack([angular_velocity(self._p_vec, self._q_vec, E[k, :3], E[k, 3:])
