@@ -15,6 +15,7 @@ from conftest import straight_rod
 from error_bounds import U, expm_error_bound, gamma
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.native import lti
+from flexfmu.native.lti_kernel import _Maps, _ip, _ptr
 from flexfmu.native.compiler import CompilerError
 
 try:
@@ -132,7 +133,7 @@ def test_monomials_in_the_header_order():
     lib = lti.library()
     p = np.array([2.0, -3.0, 5.0])
     out = np.zeros(lti.n_monomials(3))
-    lib.ffx_lti_monomials(3, lti._ptr(p), lti._ptr(out))
+    lib.ffx_lti_monomials(3, _ptr(p), _ptr(out))
     assert out.tolist() == [1, 2, -3, 5, 4, -6, 10, 9, -15, 25] == lti.monomials(p).tolist()
     assert lti.monomial_names(("a", "b")) == ("1", "a", "b", "a*a", "a*b", "b*b")
 
@@ -481,28 +482,28 @@ def test_output_rows_alone_equal_the_whole_outputs_bit_for_bit(ffr_model):
     whole = kernel.outputs(x, u, p)
     starts = np.zeros(ffr_model.ny + 1, dtype=np.int32)
     assert ffr_model.nquad > 0
-    assert lib.ffx_lti_quad_starts(ctypes.addressof(kernel._model), lti._ptr(starts, lti._ip)) == 1
+    assert lib.ffx_lti_quad_starts(ctypes.addressof(kernel._model), _ptr(starts, _ip)) == 1
     assert np.array_equal(np.diff(starts), np.bincount(ffr_model.quad_row, minlength=ffr_model.ny))
     subsets = [[], [0], [ffr_model.ny - 1], sorted(set(ffr_model.quad_row.tolist())),
                rng.permutation(ffr_model.ny)[:5].tolist(), list(range(ffr_model.ny))]
-    for quad_start in (None, lti._ptr(starts, lti._ip)):
+    for quad_start in (None, _ptr(starts, _ip)):
         kernel._model.quad_start = quad_start
         assert lib.ffx_lti_check_model(ctypes.addressof(kernel._model)) == lti.OK
         for rows in subsets:
             y = np.full(ffr_model.ny, -7.0)
             wanted = np.array(rows, dtype=np.int32)
-            status = lib.ffx_lti_output_rows(ctypes.byref(kernel._maps), lti._ptr(p), lti._ptr(x), lti._ptr(u),
-                                             lti._ptr(wanted, lti._ip), len(rows), lti._ptr(y))
+            status = lib.ffx_lti_output_rows(ctypes.byref(kernel._maps), _ptr(p), _ptr(x), _ptr(u),
+                                             _ptr(wanted, _ip), len(rows), _ptr(y))
             assert status == lti.OK
             assert np.array_equal(y[rows], whole[rows]), rows
             assert np.all(np.delete(y, rows) == -7.0)
     starts[1] += 1                                      # row starts that do not match the rows: refused
-    kernel._model.quad_start = lti._ptr(starts, lti._ip)
+    kernel._model.quad_start = _ptr(starts, _ip)
     assert lib.ffx_lti_check_model(ctypes.addressof(kernel._model)) == lti.BAD_ARGUMENT
     kernel._model.quad_start = None
     unordered = dataclasses.replace(ffr_model, quad_row=ffr_model.quad_row[::-1].copy())
     unordered_kernel = unordered.kernel()
-    assert lib.ffx_lti_quad_starts(ctypes.addressof(unordered_kernel._model), lti._ptr(starts, lti._ip)) == 0
+    assert lib.ffx_lti_quad_starts(ctypes.addressof(unordered_kernel._model), _ptr(starts, _ip)) == 0
 
 
 def test_non_finite_results_are_reported_and_leave_the_state(ffr_model):
@@ -513,7 +514,7 @@ def test_non_finite_results_are_reported_and_leave_the_state(ffr_model):
     p = ffr_model.p_start.copy()
     p[1] = 1e200                                        # base_w_x: the maps overflow
     before = x.copy()
-    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), lti._ptr(p), 1e-3, lti._ptr(x), lti._ptr(u), lti._ptr(x))
+    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), _ptr(p), 1e-3, _ptr(x), _ptr(u), _ptr(x))
     assert status == lti.NONFINITE and np.array_equal(x, before)      # in place: x untouched
     with pytest.raises(NonFiniteError):
         kernel.step(x, u, p, 1e-3)
@@ -521,8 +522,8 @@ def test_non_finite_results_are_reported_and_leave_the_state(ffr_model):
         kernel.outputs(x, u, p)
     p = ffr_model.p_start.copy()
     y = np.zeros(ffr_model.ny)
-    status = lib.ffx_lti_outputs(ctypes.byref(kernel._maps), lti._ptr(p), lti._ptr(np.full(ffr_model.nx, 1e300)),
-                                 lti._ptr(u), lti._ptr(y))
+    status = lib.ffx_lti_outputs(ctypes.byref(kernel._maps), _ptr(p), _ptr(np.full(ffr_model.nx, 1e300)),
+                                 _ptr(u), _ptr(y))
     assert status == lti.NONFINITE
     for h in (-1.0, float("nan"), float("inf")):
         with pytest.raises(ParameterError):
@@ -544,10 +545,10 @@ def test_state_overflow_is_reported_and_leaves_the_state():
     lib = lti.library()
     p = np.zeros(1)                                     # np = 0: never read
     x, u = np.array([1e308]), np.array([1e308])
-    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), lti._ptr(p), 1.0, lti._ptr(x), lti._ptr(u), lti._ptr(x))
+    status = lib.ffx_lti_step(ctypes.byref(kernel._maps), _ptr(p), 1.0, _ptr(x), _ptr(u), _ptr(x))
     assert status == lti.NONFINITE and x[0] == 1e308
-    status = lib.ffx_lti_steps(ctypes.byref(kernel._maps), lti._ptr(p), 0.3, 3, lti._ptr(x), lti._ptr(u),
-                               lti._ptr(x))
+    status = lib.ffx_lti_steps(ctypes.byref(kernel._maps), _ptr(p), 0.3, 3, _ptr(x), _ptr(u),
+                               _ptr(x))
     assert status == lti.NONFINITE and x[0] == 1e308  # the third step overflows: none is kept
     # 1 + 0.25 * 2 by the exact ZOH: expm of W = 0.25 [[0, 1], [0, 0]] within expm_error_bound(W) (2-norm) times
     # |x| + |u| = 3, then Ad x + Bd u: gamma_2 of its terms (<= 1.5)
@@ -578,9 +579,9 @@ def test_arrays_round_trip_and_the_model_check(ffr_model):
     assert lib.ffx_lti_check_model(ctypes.byref(kernel._model)) == lti.OK
     kernel._model.nmono -= 1
     assert lib.ffx_lti_check_model(ctypes.byref(kernel._model)) == lti.BAD_ARGUMENT
-    maps, work = lti._Maps(), np.zeros(4)
+    maps, work = _Maps(), np.zeros(4)
     kernel._model.nmono += 1
-    assert lib.ffx_lti_maps_init(ctypes.byref(maps), ctypes.byref(kernel._model), lti._ptr(work), 4) == \
+    assert lib.ffx_lti_maps_init(ctypes.byref(maps), ctypes.byref(kernel._model), _ptr(work), 4) == \
         lti.BAD_ARGUMENT                                # too little workspace
 
 

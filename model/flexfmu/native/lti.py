@@ -1,8 +1,7 @@
-# Over 500 lines on purpose: the model's arrays, their extraction from a simulator's maps (the probes: one beside each
-# simulator, flexfmu.ffr.lti_probe and flexfmu.body.lti_probe) and the ctypes bindings all follow the one layout of
-# csrc/lti_kernels.h, which this module mirrors.
 """A clamped flexible body on a moving base as the parameter-dependent linear system of csrc/lti_kernels.h, with its
-coefficients taken from the library's own maps, and the C kernel through ctypes.
+coefficients taken from the library's own maps (the probes: one beside each simulator, flexfmu.ffr.lti_probe and
+flexfmu.body.lti_probe), and the C kernel through ctypes (flexfmu.native.lti_kernel; the monomials and the exact fit of
+a quadratic: flexfmu.native.lti_quadratic; their public names are re-exported here).
 
     x' = A(p) x + B(p) u + b(p),     y = Cx(p) x + Cu(p) u + y0(p) + sum_k v_k z[i_k] z[j_k] e_{r_k},
     z = [x; u; mono(p)],  mono(p) = [1, p_1 .. p_np, p_i p_j (i <= j)]
@@ -28,17 +27,17 @@ has no native form (ParameterError naming ``integrator``).
 """
 from __future__ import annotations
 
-import ctypes
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError
-from flexfmu.native.compiler import CSRC, load_kernels
+from flexfmu.errors import FlexfmuError, ParameterError
+# the kernel (status codes, bindings) and the quadratics, re-exported: callers import them from flexfmu.native.lti
+from flexfmu.native.lti_kernel import (BAD_ARGUMENT, NONFINITE, OK, SINGULAR, SOURCES,  # noqa: F401
+                                       LtiKernel, LtiSimulator, expm, library)
+from flexfmu.native.lti_quadratic import (fit_quadratic, monomial_names, monomial_pairs, monomials,  # noqa: F401
+                                          n_monomials, sample_points)
 
-SOURCES = (CSRC / "lti_kernels.c",)
-OK, NONFINITE, SINGULAR, BAD_ARGUMENT = 0, 1, 2, 3
 AXES = ("x", "y", "z")
 BASE_W = tuple(f"base_w_{a}" for a in AXES)
 BASE_DW = tuple(f"base_dw_{a}" for a in AXES)
@@ -53,27 +52,6 @@ _EPS = np.finfo(float).eps
 
 class ContractError(FlexfmuError):
     """The library's maps are not polynomials of degree <= 2 in the held parameters (lti_kernels.h's contract)."""
-
-
-# ---------------------------------------------------------------------------------------------- monomials
-def n_monomials(n_p: int) -> int:
-    return 1 + n_p + n_p * (n_p + 1) // 2
-
-
-def monomial_pairs(n_p: int) -> list[tuple[int, int]]:
-    """(i, j), i <= j, of the degree-2 monomials in their order (after 1 and p_0 .. p_{np-1})."""
-    return [(i, j) for i in range(n_p) for j in range(i, n_p)]
-
-
-def monomials(p) -> np.ndarray:
-    """mono(p) in the order of lti_kernels.h."""
-    p = np.asarray(p, dtype=float)
-    n = p.size
-    return np.concatenate([[1.0], p, [p[i] * p[j] for i, j in monomial_pairs(n)]])
-
-
-def monomial_names(names) -> tuple[str, ...]:
-    return ("1", *names, *(f"{names[i]}*{names[j]}" for i, j in monomial_pairs(len(names))))
 
 
 # ---------------------------------------------------------------------------------------------- the model
@@ -275,51 +253,6 @@ class Probe:
     mono_quadratic: object = None
 
 
-def sample_points(offsets):
-    """The sample points of p: 0, a_i e_i, b_i e_i, a_i e_i + a_j e_j (i < j)."""
-    n = len(offsets)
-    pts = [np.zeros(n)]
-    for i, (a, b) in enumerate(offsets):
-        for s in (a, b):
-            q = np.zeros(n)
-            q[i] = s
-            pts.append(q)
-    for i in range(n):
-        for j in range(i + 1, n):
-            q = np.zeros(n)
-            q[i], q[j] = offsets[i][0], offsets[j][0]
-            pts.append(q)
-    return pts
-
-
-def fit_quadratic(values, offsets) -> np.ndarray:
-    """Coefficients (nmono, ...) of the quadratic that takes ``values`` (in the order of sample_points) at the sample
-    points: along each axis from f(0), f(a), f(b) (the 2x2 system solved in closed form); the mixed ones from
-    f(a_i e_i + a_j e_j) - f(a_i e_i) - f(a_j e_j) + f(0) = c_ij a_i a_j."""
-    n = len(offsets)
-    f0 = values[0]
-    lin, sq = [], []
-    fa = {}
-    for i, (a, b) in enumerate(offsets):
-        va, vb = values[1 + 2 * i] - f0, values[2 + 2 * i] - f0
-        fa[i] = values[1 + 2 * i]
-        # c a + d a^2 = va, c b + d b^2 = vb
-        d = (vb * a - va * b) / (a * b * (b - a))
-        c = (va * b * b - vb * a * a) / (a * b * (b - a))
-        lin.append(c)
-        sq.append(d)
-    mixed = {}
-    k = 1 + 2 * n
-    for i in range(n):
-        for j in range(i + 1, n):
-            mixed[i, j] = (values[k] - fa[i] - fa[j] + f0) / (offsets[i][0] * offsets[j][0])
-            k += 1
-    out = [f0, *lin]
-    for i, j in monomial_pairs(n):
-        out.append(sq[i] if i == j else mixed[i, j])
-    return np.array(out)
-
-
 def inputs_of(probe: Probe, u, p) -> np.ndarray:
     """The FMU input vector with u and the input-fed p; where both feed one input (base_a with geometric
     stiffening) u's value wins (the callers keep them equal)."""
@@ -450,221 +383,3 @@ def _check(model: LtiModel, probe: Probe, rng) -> dict:
         if np.any(ok):
             err["outputs"] = max(err["outputs"], float(np.max(np.abs(y - y_lib)[ok] / scale[ok])))
     return err
-
-
-# ---------------------------------------------------------------------------------------------- ctypes
-_dp = ctypes.POINTER(ctypes.c_double)
-_ip = ctypes.POINTER(ctypes.c_int)
-
-
-class _Model(ctypes.Structure):
-    _fields_ = [("nx", ctypes.c_int), ("nu", ctypes.c_int), ("ny", ctypes.c_int), ("np", ctypes.c_int),
-                ("nmono", ctypes.c_int), ("A", _dp), ("B", _dp), ("b", _dp), ("Cx", _dp), ("Cu", _dp), ("y0", _dp),
-                ("nquad", ctypes.c_int), ("quad_row", _ip), ("quad_i", _ip), ("quad_j", _ip), ("quad_value", _dp),
-                ("quad_start", _ip)]  # NULL here: the outputs are computed whole
-
-
-class _Maps(ctypes.Structure):
-    _fields_ = [("model", ctypes.POINTER(_Model)), ("step_valid", ctypes.c_int), ("output_valid", ctypes.c_int),
-                ("h", ctypes.c_double), ("p_step", _dp), ("p_output", _dp), ("Ad", _dp), ("Bd", _dp), ("bd", _dp),
-                ("Cx", _dp), ("Cu", _dp), ("y0", _dp), ("z", _dp), ("mono", _dp), ("x_new", _dp), ("aug", _dp),
-                ("expm_work", _dp), ("n_step_updates", ctypes.c_long), ("n_output_updates", ctypes.c_long)]
-
-
-def library() -> ctypes.CDLL:
-    """The compiled lti kernels (flexfmu.native.compiler: cached per source digest), prototypes declared; pointer
-    arguments as void * (pass array addresses as ints on the per-step path: ~1 us a call)."""
-    lib = load_kernels("lti", SOURCES)
-    if not getattr(lib, "_ffx_lti_declared", False):
-        c_int, c_double, c_size, c_long, vp = (ctypes.c_int, ctypes.c_double, ctypes.c_size_t, ctypes.c_long,
-                                               ctypes.c_void_p)
-        for name, res, args in (
-                ("ffx_lti_check_model", c_int, [vp]),
-                ("ffx_lti_monomials", None, [c_int, vp, vp]),
-                ("ffx_lti_assemble_dynamics", None, [vp, vp, vp, vp, vp]),
-                ("ffx_lti_assemble_outputs", None, [vp, vp, vp, vp, vp]),
-                ("ffx_lti_expm_work_len", c_size, [c_int]),
-                ("ffx_lti_expm", c_int, [c_int, vp, vp, vp]),
-                ("ffx_lti_maps_work_len", c_size, [vp]),
-                ("ffx_lti_maps_init", c_int, [vp, vp, vp, c_size]),
-                ("ffx_lti_maps_invalidate", None, [vp]),
-                ("ffx_lti_update_step_maps", c_int, [vp, vp, c_double]),
-                ("ffx_lti_update_output_maps", c_int, [vp, vp]),
-                ("ffx_lti_step", c_int, [vp, vp, c_double, vp, vp, vp]),
-                ("ffx_lti_steps", c_int, [vp, vp, c_double, c_long, vp, vp, vp]),
-                ("ffx_lti_outputs", c_int, [vp, vp, vp, vp, vp]),
-                ("ffx_lti_output_rows", c_int, [vp, vp, vp, vp, vp, c_int, vp]),
-                ("ffx_lti_quad_starts", c_int, [vp, vp]),
-                ("ffx_lti_status_string", ctypes.c_char_p, [c_int])):
-            f = getattr(lib, name)
-            f.restype, f.argtypes = res, args
-        lib._ffx_lti_declared = True
-    return lib
-
-
-def _ptr(a: np.ndarray, kind=_dp):
-    return a.ctypes.data_as(kind)
-
-
-def expm(M) -> np.ndarray:
-    """The C kernel's matrix exponential (ffx_lti_expm) of a square matrix."""
-    lib = library()
-    M = np.ascontiguousarray(M, dtype=np.float64)
-    n = M.shape[0]
-    if M.ndim != 2 or M.shape != (n, n):
-        raise ParameterError("M", f"shape {M.shape}", "square")
-    E = np.empty_like(M)
-    work = np.empty(max(1, lib.ffx_lti_expm_work_len(n)))
-    status = lib.ffx_lti_expm(n, M.ctypes.data, E.ctypes.data, work.ctypes.data)
-    if status != OK:
-        raise NonFiniteError("M", f"expm: {lib.ffx_lti_status_string(status).decode()}")
-    return E
-
-
-class LtiKernel:
-    """The C step and outputs of an LtiModel, the maps cached in the kernel for the last (p, h).  Arguments are
-    copied into buffers the C side reads (``x``, ``u``, ``p``), so a call costs a few microseconds."""
-
-    def __init__(self, model: LtiModel):
-        self.model = model
-        self.lib = lib = library()
-        self._arrays = model.arrays()                   # kept alive: the struct points into them
-        a = self._arrays
-        self._model = _Model(model.nx, model.nu, model.ny, model.np, model.nmono, _ptr(a["A"]), _ptr(a["B"]),
-                             _ptr(a["b"]), _ptr(a["Cx"]), _ptr(a["Cu"]), _ptr(a["y0"]), model.nquad,
-                             _ptr(a["quad_row"], _ip), _ptr(a["quad_i"], _ip), _ptr(a["quad_j"], _ip),
-                             _ptr(a["quad_value"]))
-        self._model_addr = ctypes.addressof(self._model)
-        if lib.ffx_lti_check_model(self._model_addr) != OK:
-            raise ParameterError("model", "inconsistent sizes or quadratic-term indices", "lti_kernels.h's layout")
-        n = lib.ffx_lti_maps_work_len(self._model_addr)
-        self._work = np.zeros(max(1, n))
-        self._maps = _Maps()
-        self._maps_addr = ctypes.addressof(self._maps)
-        status = lib.ffx_lti_maps_init(self._maps_addr, self._model_addr, self._work.ctypes.data, n)
-        if status != OK:
-            raise ParameterError("model", lib.ffx_lti_status_string(status).decode())
-        # argument buffers (at least one element: a valid address even when empty)
-        self.x, self.u, self.p = (np.zeros(max(1, k)) for k in (model.nx, model.nu, model.np))
-        self._x_next, self._y = np.zeros(max(1, model.nx)), np.zeros(max(1, model.ny))
-        self._ax, self._au, self._ap, self._axn, self._ay = (b.ctypes.data for b in (self.x, self.u, self.p,
-                                                                                     self._x_next, self._y))
-        self._step, self._outputs = lib.ffx_lti_steps, lib.ffx_lti_outputs
-        self._nx, self._ny = model.nx, model.ny
-
-    def _load(self, x, u, p) -> None:
-        m = self.model
-        for buf, value, n, name in ((self.x, x, m.nx, "x"), (self.u, u, m.nu, "u"), (self.p, p, m.np, "p")):
-            if value is None:
-                continue
-            if np.shape(value) != (n,):
-                raise ParameterError(name, f"shape {np.shape(value)}", f"({n},)")
-            buf[:n] = value
-
-    def _fail(self, status: int, what: str):
-        text = self.lib.ffx_lti_status_string(status).decode()
-        if status == BAD_ARGUMENT:
-            return ParameterError(what, text)
-        return NonFiniteError(what, text)
-
-    def step(self, x, u, p, h: float) -> np.ndarray:
-        """x after one exact step h with u and p held (x, u, p: arrays of nx, nu, np)."""
-        return self.steps(x, u, p, h, 1)
-
-    def steps(self, x, u, p, h: float, n: int) -> np.ndarray:
-        """x after n such steps."""
-        self._load(x, u, p)
-        status = self._step(self._maps_addr, self._ap, h, n, self._ax, self._au, self._axn)
-        if status != OK:
-            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
-        return self._x_next[:self._nx].copy()
-
-    def advance(self, h: float, n: int = 1) -> None:
-        """The buffers' x after n steps h with the buffers' u and p, in place (the per-step path of a simulator)."""
-        status = self._step(self._maps_addr, self._ap, h, n, self._ax, self._au, self._ax)
-        if status != OK:
-            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
-
-    def outputs(self, x=None, u=None, p=None) -> np.ndarray:
-        """y for (x, u, p); None: the buffer's value."""
-        if x is not None or u is not None or p is not None:
-            self._load(x, u, p)
-        status = self._outputs(self._maps_addr, self._ap, self._ax, self._au, self._ay)
-        if status != OK:
-            raise self._fail(status, "outputs")
-        return self._y[:self._ny].copy()
-
-    def step_maps(self, p, h: float):
-        """Copies of (Ad, Bd, bd) of (p, h)."""
-        m = self.model
-        self._load(None, None, p)
-        status = self.lib.ffx_lti_update_step_maps(self._maps_addr, self._ap, float(h))
-        if status != OK:
-            raise self._fail(status, "step maps")
-        mp = self._maps
-        view = lambda ptr, n: np.ctypeslib.as_array(ptr, shape=(n,)).copy()      # noqa: E731
-        return (view(mp.Ad, m.nx * m.nx).reshape(m.nx, m.nx), view(mp.Bd, m.nx * m.nu).reshape(m.nx, m.nu),
-                view(mp.bd, m.nx))
-
-    def invalidate(self) -> None:
-        self.lib.ffx_lti_maps_invalidate(self._maps_addr)
-
-    @property
-    def counters(self) -> tuple[int, int]:
-        """(step-map recomputations, output-map recomputations) so far."""
-        return int(self._maps.n_step_updates), int(self._maps.n_output_updates)
-
-
-class LtiSimulator:
-    """A minimal simulator of an LtiModel on the C kernel (FMU input vector in, outputs out): state x, time t,
-    the held inputs and the parameter-fed p (``set_parameter``, e.g. damping_ratio at run time)."""
-
-    def __init__(self, model: LtiModel):
-        self.model = model
-        self.kernel = model.kernel()
-        self.t = 0.0
-        self._v = np.zeros(len(model.input_names))
-        self._params = {n: float(model.p_start[k]) for k, n in enumerate(model.param_names)
-                        if model.p_from_input[k] < 0}
-        self._split()
-
-    def _split(self):
-        u, p = self.model.split_inputs(self._v, self._params)
-        self.kernel._load(None, u, p)
-
-    @property
-    def time(self) -> float:
-        return self.t
-
-    @property
-    def x(self) -> np.ndarray:
-        return self.kernel.x[:self.model.nx].copy()
-
-    @x.setter
-    def x(self, value) -> None:
-        self.kernel._load(value, None, None)
-
-    def set_parameter(self, name: str, value: float) -> None:
-        if name not in self._params:
-            raise ParameterError(name, "not a parameter of the native model", ", ".join(self._params))
-        if not math.isfinite(value):
-            raise NonFiniteError(name, f"{value!r}")
-        self._params[name] = float(value)
-        self._split()
-
-    def set_input_vector(self, values) -> None:
-        v = np.asarray(values, dtype=float)
-        if v.shape != self._v.shape:
-            raise ParameterError("inputs", f"{v.size} values", f"{self._v.size} values")
-        if not np.all(np.isfinite(v)):
-            raise NonFiniteError(self.model.input_names[int(np.flatnonzero(~np.isfinite(v))[0])], "not finite")
-        self._v = v.copy()
-        self._split()
-
-    def step(self, h: float) -> None:
-        """One exact step h; the state is unchanged on failure (NonFiniteError)."""
-        self.kernel.advance(h)
-        self.t += h
-
-    def output_vector(self) -> np.ndarray:
-        return self.kernel.outputs()
