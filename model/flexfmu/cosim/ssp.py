@@ -30,7 +30,8 @@ import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from flexfmu.cosim.system import SimulatorSpec, System, is_ssp_path, load_osp
+from flexfmu.cosim import xmlsource as xs
+from flexfmu.cosim.system import SimulatorSpec, System, is_ssp_path, load_osp, typed_value
 from flexfmu.errors import FlexfmuError, ParameterError, require
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -41,8 +42,7 @@ OSP_ANNOTATION = "com.opensimulationplatform"
 #: the parameter set every component's start values are in (ecos: --parameterSet start; libcosim
 #: applies a component's first set by default)
 PARAMETER_SET = "start"
-_TYPES = {"Real": float, "Integer": int, "String": str,
-          "Boolean": lambda text: text.strip().lower() in ("true", "1")}
+_TYPES = ("Real", "Integer", "Boolean", "String")
 
 
 def _kind(value) -> str:
@@ -135,43 +135,97 @@ def _cleanup():
 atexit.register(_cleanup)
 
 
-def _tag(element) -> str:
-    return element.tag.split("}", 1)[-1]
-
-
 def _child(element, name):
-    for c in element:
-        if _tag(c) == name:
-            return c
-    return None
+    """The first child with this tag (namespaces ignored), or None."""
+    found = xs.children(element, name)
+    return found[0] if found else None
 
 
-def _children(element, name):
-    return [c for c in element if _tag(c) == name] if element is not None else []
+_VALUE_KINDS = "one of ssv:Real, Integer, Boolean, String"
 
 
-def _parameter_set(pset, where: str) -> dict:
-    values = {}
-    for p in _children(_child(pset, "Parameters"), "Parameter"):
-        typed = [t for t in p if _tag(t) in _TYPES or _tag(t) in ("Enumeration", "Binary")]
-        require(len(typed) == 1, "ParameterValues", f"{where}: parameter {p.get('name')!r} has no value",
-                "one of ssv:Real, Integer, Boolean, String")
-        kind = _tag(typed[0])
-        require(kind in _TYPES, "ParameterValues", f"{where}.{p.get('name')}: ssv:{kind} is not supported",
-                "ssv:Real, Integer, Boolean, String")
-        try:
-            values[p.get("name")] = _TYPES[kind](typed[0].get("value"))
-        except (TypeError, ValueError):
-            raise ParameterError(f"{where}.{p.get('name')}", f"{typed[0].get('value')!r} is not a {kind}",
-                                 f"a {kind} value") from None
-    return values
+def _parameter_set(tree, pset, where: str) -> tuple[dict, dict]:
+    """The values of one ssv:ParameterSet and where each is (its ssv:Parameter)."""
+    values, origins = {}, {}
+    for p in xs.children(_child(pset, "Parameters"), "Parameter"):
+        name = tree.attribute(p, "name", f'name="VARIABLE" with {_VALUE_KINDS}')
+        typed = [t for t in p if xs.tag(t) not in ("Unit", "Annotations")]
+        tree.require(len(typed) == 1, p, f"{where}.{name}: {len(typed)} values" if typed else f"{where}.{name}: no "
+                     "value", _VALUE_KINDS)
+        kind = xs.tag(typed[0])
+        tree.require(kind in _TYPES, typed[0], f"{where}.{name}: ssv:{kind} is not supported", _VALUE_KINDS)
+        values[name] = typed_value(tree, typed[0], kind, typed[0].get("value"))
+        origins[name] = tree.where(p)
+    return values, origins
 
 
-def _parse_xml(path: Path, what: str):
-    try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise ParameterError("SYSTEM_FILE", f"{path}: not XML ({exc})", what) from None
+def _experiment(tree, root) -> tuple[float, float]:
+    """Start time and base step: ssd:DefaultExperiment's startTime and libcosim's osp:FixedStepAlgorithm
+    annotation (else 0 s and 1 ms)."""
+    start, base_step = 0.0, 1e-3
+    exp = _child(root, "DefaultExperiment")
+    if exp is not None:
+        if exp.get("startTime") is not None:
+            start = tree.number(exp, exp.get("startTime"), "startTime")
+        for ann in xs.children(_child(exp, "Annotations"), "Annotation"):
+            if ann.get("type") == OSP_ANNOTATION:
+                for alg in xs.children(_child(ann, "Algorithm"), "FixedStepAlgorithm"):
+                    tree.require(alg.get("baseStepSize") is not None, alg, "no baseStepSize",
+                                 'baseStepSize="H", a finite number > 0, s')
+                    base_step = tree.number(alg, alg.get("baseStepSize"), "baseStepSize", positive=True)
+    return start, base_step
+
+
+def _component(tree, el, ssd: Path, prefix: str, names: dict) -> SimulatorSpec:
+    """One ssd:Component: its FMU and the start values of its ParameterBindings (inline ParameterValues or .ssv
+    files; later bindings override earlier ones).  ``prefix`` + a file's path in the SSP names it in messages."""
+    tree.require(xs.tag(el) == "Component", el, f"ssd:{xs.tag(el)} is not supported",
+                 "ssd:Component (no nested systems or signal dictionaries)")
+    name = tree.attribute(el, "name", 'name="INSTANCE" source="resources/MODEL.fmu"')
+    tree.require(name not in names, el, f"two components named {name!r}: here and at {tree.line(names.get(name))}",
+                 "a name unique in the system")
+    names[name] = el
+    source = tree.attribute(el, "source", 'source="resources/MODEL.fmu", a file in the SSP')
+    tree.require("://" not in source, el, f"source {source!r} is not a file in the archive",
+                 "a relative path such as resources/X.fmu")
+    values, origins = {}, {}
+    for binding in xs.children(_child(el, "ParameterBindings"), "ParameterBinding"):
+        if binding.get("source"):
+            ssv = ssd.parent / binding.get("source")
+            tree.require(ssv.is_file(), binding, f"{name}: {ssv} not found", "an .ssv file in the SSP")
+            ssv_tree = xs.parse(ssv, prefix + binding.get("source"), "an SSV parameter set")
+            more = _parameter_set(ssv_tree, ssv_tree.root, name)
+        else:
+            more = ({}, {})
+            for pv in xs.children(binding, "ParameterValues"):
+                for pset in xs.children(pv, "ParameterSet"):
+                    found = _parameter_set(tree, pset, name)
+                    more[0].update(found[0])
+                    more[1].update(found[1])
+        values.update(more[0])
+        origins.update(more[1])
+    return SimulatorSpec(name, (ssd.parent / source).resolve(), values, origin=tree.where(el),
+                         value_origins=origins)
+
+
+_TRANSFORMATIONS = ("LinearTransformation", "BooleanMappingTransformation", "IntegerMappingTransformation",
+                    "EnumerationMappingTransformation")
+
+
+def _connection(tree, c, names: dict) -> tuple:
+    ends = []
+    for element, connector in (("startElement", "startConnector"), ("endElement", "endConnector")):
+        allowed = "startElement, startConnector, endElement and endConnector"
+        instance = tree.attribute(c, element, allowed)
+        variable = tree.attribute(c, connector, allowed)
+        tree.require(instance in names, c, f"unknown component {instance!r} (connections to the system's own "
+                     "connectors are not supported)", ", ".join(names))
+        ends.append((instance, variable))
+    tree.require(not [t for t in c if xs.tag(t) in _TRANSFORMATIONS], c, "a transformation",
+                 "plain connections (an output to an input, unchanged)")
+    tree.require(ends[0] != ends[1], c, f"{ends[0][0]}.{ends[0][1]} is connected to itself",
+                 "an output and an input")
+    return tuple(ends)
 
 
 def load_ssp(path, fmu_dir=None) -> System:
@@ -179,7 +233,9 @@ def load_ssp(path, fmu_dir=None) -> System:
     with SystemStructure.ssd, or an ``.ssd`` file.  Components (in the file's order: the
     Gauss-Seidel order) with their FMU sources and the start values of their ParameterBindings
     (inline ParameterValues or .ssv files; later bindings override earlier ones), the connections,
-    the start time and the base step (libcosim's osp:FixedStepAlgorithm annotation, else 1 ms)."""
+    the start time and the base step (libcosim's osp:FixedStepAlgorithm annotation, else 1 ms).
+    Anything wrong in the file is a ParameterError naming the file (inside an archive: ``x.ssp!SystemStructure.ssd``),
+    the element's line and what is allowed."""
     path = Path(path)
     what = "an SSP: a .ssp archive, a folder with SystemStructure.ssd, or an .ssd file"
     require(path.exists(), "SYSTEM_FILE", f"{str(path)!r} not found", what)
@@ -191,60 +247,31 @@ def load_ssp(path, fmu_dir=None) -> System:
                 zf.extractall(folder)
         except zipfile.BadZipFile:
             raise ParameterError("SYSTEM_FILE", f"{path}: not a zip archive", what) from None
-        ssd = folder / "SystemStructure.ssd"
+        ssd, prefix = folder / "SystemStructure.ssd", f"{path}!"     # a file in the archive: x.ssp!resources/..
     elif path.is_dir():
-        ssd = path / "SystemStructure.ssd"
+        ssd, prefix = path / "SystemStructure.ssd", f"{path}/"
     else:
-        ssd = path
+        ssd, prefix = path, f"{path.parent}/"
     require(ssd.is_file(), "SYSTEM_FILE", f"{path}: no SystemStructure.ssd", what)
-    root = _parse_xml(ssd, what)
-    require(_tag(root) == "SystemStructureDescription", "SYSTEM_FILE", f"{ssd}: root element is {_tag(root)!r}",
-            "ssd:SystemStructureDescription")
+    tree = xs.parse(ssd, str(path) if ssd == path else prefix + ssd.name, what)
+    root = tree.root
+    tree.require(xs.tag(root) == "SystemStructureDescription", root, f"the root element is {xs.tag(root)}",
+                 "ssd:SystemStructureDescription")
     system_el = _child(root, "System")
-    require(system_el is not None, "SYSTEM_FILE", f"{ssd}: no ssd:System", "one ssd:System")
-    start, base_step = 0.0, 1e-3
-    exp = _child(root, "DefaultExperiment")
-    if exp is not None:
-        start = float(exp.get("startTime", "0"))
-        for ann in _children(_child(exp, "Annotations"), "Annotation"):
-            if ann.get("type") == OSP_ANNOTATION:
-                for alg in _children(_child(ann, "Algorithm"), "FixedStepAlgorithm"):
-                    base_step = float(alg.get("baseStepSize"))
-    sims = []
-    for el in _child(system_el, "Elements") if _child(system_el, "Elements") is not None else []:
-        require(_tag(el) == "Component", "Elements", f"{ssd}: ssd:{_tag(el)} {el.get('name')!r} is not supported",
-                "ssd:Component (no nested systems or signal dictionaries)")
-        name, source = el.get("name"), el.get("source")
-        require(bool(name) and bool(source), "Component", f"{ssd}: a component without name or source",
-                "name and source")
-        require("://" not in source, "Component", f"{name}: source {source!r} is not a file in the archive",
-                "a relative path such as resources/X.fmu")
-        values = {}
-        for binding in _children(_child(el, "ParameterBindings"), "ParameterBinding"):
-            if binding.get("source"):
-                ssv = ssd.parent / binding.get("source")
-                require(ssv.is_file(), "ParameterBinding", f"{name}: {ssv} not found", "an .ssv file in the SSP")
-                pset = _parse_xml(ssv, "an SSV parameter set")
-                values.update(_parameter_set(pset, name))
-            else:
-                for pv in _children(binding, "ParameterValues"):
-                    for pset in _children(pv, "ParameterSet"):
-                        values.update(_parameter_set(pset, name))
-        sims.append(SimulatorSpec(name, (ssd.parent / source).resolve(), values))
-    names = {s.name for s in sims}
-    conns = []
-    for c in _children(_child(system_el, "Connections"), "Connection"):
-        require(not [t for t in c if _tag(t) in ("LinearTransformation", "BooleanMappingTransformation",
-                                                   "IntegerMappingTransformation", "EnumerationMappingTransformation")],
-                "Connection", f"{c.get('startElement')}.{c.get('startConnector')}: a transformation",
-                "plain connections (an output to an input, unchanged)")
-        a = (c.get("startElement"), c.get("startConnector"))
-        b = (c.get("endElement"), c.get("endConnector"))
-        for inst, _ in (a, b):
-            require(inst in names, "Connection", f"unknown component {inst!r} (connections to the system's own "
-                    "connectors are not supported)", ", ".join(sorted(names)))
-        conns.append((a, b))
-    system = System(sims, conns, base_step, start, path)
+    tree.require(system_el is not None, root, "no ssd:System", "one ssd:System")
+    start, base_step = _experiment(tree, root)
+    names: dict = {}
+    sims = [_component(tree, el, ssd, prefix, names)
+            for elements in xs.children(system_el, "Elements") for el in elements]
+    conns, declared = [], {}
+    for c in xs.children(_child(system_el, "Connections"), "Connection"):
+        connection = _connection(tree, c, names)
+        tree.require(connection not in declared, c, f"this connection is given twice (first at "
+                     f"{tree.line(declared.get(connection))})", "each connection once")
+        conns.append(connection)
+        declared[connection] = c
+    system = System(sims, conns, base_step, start, path,
+                    connection_origins={k: tree.where(c) for k, c in declared.items()})
     if fmu_dir is not None:
         system = system.with_fmu_dir(fmu_dir)
     return system
