@@ -43,8 +43,7 @@ def build_fmus(out: Path) -> dict[str, Path]:
                          clamp=clamp_from_text(bracket, "bolt_1,bolt_2"), f_max=2000.0)
     spec = next(s for s in registry.FMUS if s.name == "FFRBeam")
     runtime_files = runtime.compile_runtime(runtime.build_folder())
-    ffrbeam = build_one(spec.name, registry.slave_script(spec), spec.variable_info, spec.experiment,
-                        out / "FFRBeam.fmu", runtime_files)
+    ffrbeam = build_one(spec, out / "FFRBeam.fmu", runtime_files)
     return {"exported clamped bracket": export_fmu(clamped, out / "clamped" / "Bracket.fmu"),
             "FFRBeam": ffrbeam}
 

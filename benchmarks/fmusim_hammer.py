@@ -114,8 +114,7 @@ def build_python_ffrbeam(target: Path) -> Path:
     from flexfmu.fmi.build import build_one
     spec = next(spec for spec in registry.FMUS if spec.name == "FFRBeam")
     runtime_files = runtime.compile_runtime(runtime.build_folder())
-    return build_one(spec.name, registry.slave_script(spec), spec.variable_info, spec.experiment, target,
-                     runtime_files)
+    return build_one(spec, target, runtime_files)
 
 
 def main(argv: list[str] | None = None) -> int:

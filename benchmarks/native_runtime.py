@@ -112,7 +112,7 @@ def step_flops(fmu: Path) -> tuple[int, str]:
     """Flops of one native step and output evaluation, from the model file's sizes."""
     import zipfile
 
-    from flexfmu.fmi.native import read_model_file
+    from flexfmu.fmi.model_file import read_model_file
     with tempfile.TemporaryDirectory() as tmp, zipfile.ZipFile(fmu) as zf:
         zf.extract("resources/flexfmu_model.bin", tmp)
         entries = read_model_file(Path(tmp) / "resources" / "flexfmu_model.bin")

@@ -183,7 +183,7 @@ def test_sources_are_complete_and_rebuild_with_cmake(native, tmp_path):
 
 @pytest.mark.unit
 def test_model_file_round_trip(tmp_path):
-    from flexfmu.fmi.native import read_model_file, write_model_file
+    from flexfmu.fmi.model_file import read_model_file, write_model_file
     entries = {"kind": "lti", "names": ["a", "béta", ""], "x": np.arange(6.0).reshape(2, 3), "i": np.int32(-4),
                "empty": np.zeros((0, 3)), "s": 2.5}
     back = read_model_file(write_model_file(tmp_path / "m.bin", entries))
@@ -372,8 +372,8 @@ def test_damaged_or_foreign_states_are_refused(native, fmus):
             inst.log.clear()
             inst.expect_failure(inst.fmu.deSerializeFMUstate, blob)
             assert any(s == 3 and "fmi2DeSerializeFMUstate" in m for s, _, m in inst.log), (label, inst.log)
-        nan_state = bytearray(data)
-        nan_state[-8:] = struct.pack("<d", float("nan"))
+        nan_state = bytearray(data)                              # the state vector's last entry: before the u64
+        nan_state[-16:-8] = struct.pack("<d", float("nan"))      # size of the kind's own state (0 here)
         inst.log.clear()                                         # a valid checksum: the bridge's own check refuses
         inst.expect_failure(inst.fmu.deSerializeFMUstate, restamp_crc(bytes(nan_state)))
         assert any("not finite" in m for _, _, m in inst.log), inst.log
@@ -608,7 +608,7 @@ def test_two_instances_at_once_give_identical_results(native):
 
 
 def test_a_model_file_of_another_format_version_is_refused_naming_both(native, tmp_path):
-    from flexfmu.fmi.native import MODEL_FILE
+    from flexfmu.fmi.model_file import MODEL_FILE
     folder = extract_fmu(native["FFRBeam"], tmp_path / "fmu")
     model = folder / "resources" / MODEL_FILE
     data = bytearray(model.read_bytes())

@@ -206,24 +206,30 @@ def test_the_clock_is_checked_in_absolute_terms_at_a_large_start_time(ffrbeams, 
 
 
 def test_a_python_state_whose_time_is_not_finite_is_refused(ffrbeams):
-    """A serialised Python-FMU state with NaN in its simulator's time (checksum stamped again, so the payload's own
-    check is what refuses it) or in the FMU's clock."""
+    """A serialised Python-FMU state with NaN in the FMU's clock (the runtime's layout, as a native FMU's) or in its
+    simulator's time (the simulator's JSON at the layout's end; the checksum stamped again, so the payload's own
+    checks are what refuse it)."""
     import json
+    import struct
     inst = stepped(ffrbeams["python"], "nan")
     try:
         blob = bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
         at = state_header(blob)["payload_at"]
+        payload = blob[at:]
+        sim_at = payload.index(b'{"format"')
+        assert int.from_bytes(payload[sim_at - 8:sim_at], "little") == len(payload) - sim_at
         for where in ("sim", "clock"):
-            payload = json.loads(blob[at:])
             if where == "sim":
-                payload["sim"]["time"] = float("nan")
-            else:
-                payload["clock"] = float("nan")
-            new_payload = json.dumps(payload).encode()            # NaN as JSON's extension: what a file can hold
+                state = json.loads(payload[sim_at:])
+                state["sim"]["t"] = float("nan")
+                text = json.dumps(state).encode()         # NaN as JSON's extension: what a file can hold
+                new_payload = payload[:sim_at - 8] + len(text).to_bytes(8, "little") + text
+            else:                                           # the runtime's layout: f64 clock at offset 48
+                new_payload = payload[:48] + struct.pack("<d", float("nan")) + payload[56:]
             size_at = len(STATE_PREFIX) + 12
             body = blob[:size_at] + len(new_payload).to_bytes(8, "little") + blob[size_at + 8:at] + new_payload
             inst.log.clear()
             inst.expect_failure(inst.fmu.deSerializeFMUstate, restamp_crc(body))
-            assert any("not a finite number" in m for _, _, m in inst.log), (where, inst.log)
+            assert any("not finite" in m for _, _, m in inst.log), (where, inst.log)
     finally:
         inst.free()

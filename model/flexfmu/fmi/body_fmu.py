@@ -60,7 +60,7 @@ class ExportedSpec:
     def slave_source(self) -> tuple[str, str]:
         """The slave finds its body in the FMU's resources folder."""
         return ("from flexfmu.fmi.body_fmu import exported_spec",
-                f"exported_spec(self.resources, {self.name!r}, {self.description!r})")
+                f"exported_spec(resources, {self.name!r}, {self.description!r})")
 
 
 def exported_spec(resources: str, name: str, description: str) -> ExportedSpec:

@@ -71,14 +71,20 @@ def _rewrite_model_description(fmu: Path, info: dict, experiment: dict, document
     archive.write_members(fmu, members)
 
 
-def build_one(name: str, script_text: str, info: dict, experiment: dict, target: Path, runtime_files,
-              resources: tuple[Path, ...] = (), documentation: dict | None = None) -> Path:
-    """One FMU at ``target`` from its slave script: the bundled flexfmu, the files ``resources`` (in
-    resources/, where the slave finds them at build time too: pythonfmu instantiates it there), the completed
-    modelDescription, ``documentation`` {file name: text} in documentation/, the runtime; validated."""
+def build_one(spec, target: Path, runtime_files, *, experiment: dict | None = None, resources: tuple[Path, ...] = (),
+              documentation: dict | None = None) -> Path:
+    """The FMU of ``spec`` (flexfmu.fmi.slave.FmuModel) at ``target``: its slave script (flexfmu.fmi.slave), the
+    bundled flexfmu, the files ``resources`` (in resources/, where the slave finds them at build time too: pythonfmu
+    instantiates it there), the completed modelDescription (DefaultExperiment ``experiment``, else the spec's),
+    the model file, ``documentation`` {file name: text} in documentation/, the runtime; validated."""
     from fmpy.validation import validate_fmu
     from pythonfmu.builder import FmuBuilder
 
+    from flexfmu.fmi.slave import slave_script
+
+    name = spec.name
+    script_text = slave_script(spec)
+    experiment = spec.experiment if experiment is None else experiment
     front, bridge = runtime_files
     build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
     with tempfile.TemporaryDirectory() as tmp:
@@ -92,8 +98,8 @@ def build_one(name: str, script_text: str, info: dict, experiment: dict, target:
                                         canGetAndSetFMUstate=True, canSerializeFMUstate=True))
         # the slave script, readable beside the documentation (the runtime loads the copy in resources/)
         documentation = {**(documentation or {}), f"{name}_slave.py": script_text}
-        _rewrite_model_description(fmu, info, experiment, documentation)
-        runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name, "slave_class": name})
+        _rewrite_model_description(fmu, spec.variable_info, experiment, documentation)
+        runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name}, spec)
         target = Path(target)
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.move(str(fmu), target)
@@ -109,8 +115,7 @@ def build(out: Path) -> list[Path]:
     runtime_files = runtime.compile_runtime(runtime.build_folder())
     built = []
     for spec in registry.FMUS:
-        target = build_one(spec.name, registry.slave_script(spec), spec.variable_info, spec.experiment,
-                           out / f"{spec.name}.fmu", runtime_files)
+        target = build_one(spec, out / f"{spec.name}.fmu", runtime_files)
         print(f"built {target} (fmpy validate: no problems)")
         built.append(target)
     return built

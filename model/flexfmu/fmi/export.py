@@ -16,7 +16,6 @@ from flexfmu.errors import ParameterError
 # exported_spec from here
 from flexfmu.fmi.body_fmu import (BODY_FILE, ExportedSpec, check_model_identifier, check_target,  # noqa: F401
                                   default_experiment, documentation_html, exported_spec)
-from flexfmu.fmi.slave import slave_script
 
 
 def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python") -> Path:
@@ -37,7 +36,6 @@ def export_fmu(body, target: Path, *, description: str | None = None, runtime: s
         model_file = Path(tmp) / BODY_FILE
         body.save(model_file)
         spec = ExportedSpec(name, description, body)
-        script = slave_script(spec)
         runtime_files = python_runtime.compile_runtime(python_runtime.build_folder())
-        return build.build_one(name, script, spec.variable_info, default_experiment(body), target, runtime_files,
+        return build.build_one(spec, target, runtime_files, experiment=default_experiment(body),
                                resources=(model_file,), documentation={"index.html": documentation_html(name, body)})

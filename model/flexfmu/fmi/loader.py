@@ -1,7 +1,7 @@
 """Load a flexfmu FMU's slave into the host's Python.
 
 The build copies this file into every FMU as ``resources/flexfmu_loader.py``; the FMU's binary
-(flexfmu_python.c) runs it in a fresh namespace for each new extraction and calls :func:`load`.  It
+(its Python kind, csrc/native_python.c) runs it in a fresh namespace for each new extraction and calls :func:`load`.  It
 imports nothing from flexfmu at module level, because deciding which flexfmu to import is its job:
 
 * All FMUs in a process share one interpreter, so ``flexfmu`` can be imported once.  It is imported
@@ -27,7 +27,7 @@ BUILD_INFO = "flexfmu_build.json"
 
 
 class FmuLoadError(Exception):
-    """Why the slave cannot be made; the FMU's binary logs it and fmi2Instantiate returns NULL."""
+    """Why the model cannot be loaded; the FMU's binary logs it and fmi2Instantiate returns NULL."""
 
     fmi_status = 3      # fmi2Error
 
@@ -148,8 +148,8 @@ def _requirements_message(resources: str, error: BaseException) -> str:
 
 
 def load(resources: str):
-    """The slave factory of the FMU extracted at ``resources/..``: ``factory(instance_name, guid,
-    visible) -> plumbing`` (flexfmu.fmi.plumbing.Plumbing)."""
+    """The model of the FMU extracted at ``resources/..`` (flexfmu.fmi.plumbing.PythonModel of the spec its slave
+    script's ``fmu_spec`` gives), which the runtime's Python kind makes its instances from."""
     try:
         with open(os.path.join(resources, BUILD_INFO)) as file:
             info = json.load(file)
@@ -161,14 +161,7 @@ def load(resources: str):
         spec = importlib.util.spec_from_file_location(name, os.path.join(resources, info["slave_script"]))
         script = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(script)
+        from flexfmu.fmi.plumbing import PythonModel
     except ImportError as exc:
         raise FmuLoadError(_requirements_message(resources, exc)) from None
-    slave_class = getattr(script, info["slave_class"])
-
-    def make(instance_name: str, guid: str, visible: int):
-        if guid != info["guid"]:
-            raise FmuLoadError(f"fmuGUID {guid!r} is not this FMU's ({info['guid']!r}): the host read another "
-                               f"modelDescription.xml than this binary's")
-        return slave_class(instance_name=instance_name, resources=resources, visible=bool(visible)).fmu
-
-    return make
+    return PythonModel(script.fmu_spec(resources))

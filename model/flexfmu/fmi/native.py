@@ -24,49 +24,8 @@ Layout of a native FMU:
     sources/                      every C source and header of the binary, fmi2 headers, CMakeLists.txt, README.md
     documentation/index.html      the model, the frozen parameters, the variables, how to rebuild
 
-Model file format (version FORMAT_VERSION = 1; little-endian throughout)::
-
-    offset 0   16 bytes   magic b"flexfmu-native\\n\\0"
-           16  u32        format version: a runtime that reads another version refuses the file, naming both
-           20  u32        number of entries N
-    N entries, each:
-               u16        name length L, then L bytes: the name (UTF-8)
-               u8         type: 1 float64, 2 int32, 3 string (UTF-8)
-               u8         dimensions D (0 = a scalar, at most 8)
-               D x u32    shape
-               data       prod(shape) elements (1 for a scalar), row-major: float64 8 bytes, int32 4 bytes, a string
-                          u32 length then its bytes
-    nothing after the last entry.
-
-Entries every native FMU has (read by csrc/flexfmu_native.c):
-
-    kind, model, guid               strings: the model kind ("lti"), the model identifier, the GUID (checked
-                                    against the host's fmuGUID at fmi2Instantiate)
-    var.name, var.start_string      strings (n_vars), in value-reference order; start_string: a String's value
-    var.type                        int32 (n_vars): 0 Real, 1 Integer, 2 Boolean, 3 String
-    var.causality                   int32 (n_vars): 0 parameter, 1 input, 2 output
-    var.index                       int32 (n_vars): position among the inputs / outputs / runtime parameters;
-                                    -1 for a parameter fixed at build
-    var.start                       float64 (n_vars): start (build) value of Real / Integer / Boolean variables
-    param.lo, param.hi              float64 (n_params): the allowed range of each runtime parameter
-    param.flags                     int32 (n_params): 1 lo open, 2 hi open, 4 integer, 8 has a special value
-    param.special, param.replacement float64 (n_params): the special value (e.g. damping_ratio = -1) and the value
-                                    the model gets for it (the body's own damping ratio)
-    param.allowed                   strings (n_params): what is allowed, as the Python FMU's message says it
-    divergence_limit                float64: the largest |state| entry before a step is refused (inf: none)
-    divergence_allowed              string: the "allowed" text of that refusal
-    rebuild                         string: the command that rebuilds the FMU (without --set options)
-    rebuild.names, rebuild.values   strings: the fixed parameters built with other than their defaults and their
-                                    values (shell-quoted): the refusal of another value names the command with
-                                    these and the new NAME=VALUE
-    messages                        strings: logged (status OK) at fmi2ExitInitializationMode
-    outputs.deferred                int32 (n_deferred): the outputs (their index among the outputs) computed only
-                                    when one of them is read, as the Python FMU's (the spec's deferred_outputs,
-                                    flexfmu.fmi.plumbing: e.g. max_elastic_displacement, a search over the mesh);
-                                    the others are computed at the first read after a step without them; absent:
-                                    none
-
-and the kind's entries, ``<kind>.*`` (the LTI kind's: csrc/native_lti.c's header comment).
+The model file's format and the entries every kind has: flexfmu.fmi.model_file; the LTI kind's entries: csrc/native_lti.c's
+header comment; the reframe kind's: flexfmu.native.reframe.
 """
 from __future__ import annotations
 
@@ -76,7 +35,6 @@ import html
 import json
 import math
 import shlex
-import struct
 import tempfile
 import threading
 import uuid
@@ -87,20 +45,14 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from flexfmu.errors import ParameterError
-from flexfmu.fmi import archive
+from flexfmu.fmi import archive, model_file
+from flexfmu.fmi.model_file import FORMAT_VERSION, MODEL_FILE, RuntimeParameter, write_model_file
 
 HERE = Path(__file__).resolve().parent
 FMI_CSRC = HERE / "csrc"
-MODEL_FILE = "flexfmu_model.bin"
 BUILD_INFO = "flexfmu_build.json"
-MAGIC = b"flexfmu-native\n\x00"
-FORMAT_VERSION = 1
-F64, I32, STR = 1, 2, 3
-TYPES = {"Real": 0, "Integer": 1, "Boolean": 2, "String": 3}
-CAUSALITIES = {"parameter": 0, "input": 1, "output": 2}
-LO_OPEN, HI_OPEN, INTEGER, SPECIAL = 1, 2, 4, 8
 #: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
-_FRONT = ("native_front.c", "flexfmu_native.c", "native_lti.c", "native_reframe.c")
+_FRONT = ("native_front.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "flexfmu_bridge.h", "native_kind.h", "native_platform.h")
 _KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
 _KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
@@ -110,99 +62,7 @@ NATIVE_FMUS = ("FFRBeam", "ReframeBody")
 NOT_YET: dict = {}
 
 
-# ---------------------------------------------------------------------------------------------- the model file
-def _encode(name: str, value) -> bytes:
-    """One entry: name, type, shape, data (module docstring)."""
-    key = name.encode("utf-8")
-    if len(key) >= 1 << 16:
-        raise ParameterError("entry", f"name {name[:40]!r}... too long", "< 65536 bytes")
-    if isinstance(value, str) or (isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value)):
-        items = [value] if isinstance(value, str) else list(value)
-        shape = () if isinstance(value, str) else (len(items),)
-        data = b"".join(struct.pack("<I", len(b)) + b for b in (s.encode("utf-8") for s in items))
-        kind = STR
-    else:
-        array = np.asarray(value)
-        if array.dtype.kind in "iub":
-            if array.size and (array.min() < -2**31 or array.max() >= 2**31):
-                raise ParameterError(name, "integers beyond int32", "int32 values")
-            array, kind = np.array(array, dtype="<i4", order="C"), I32   # (ascontiguousarray makes 0-d 1-d)
-        elif array.dtype.kind == "f":
-            array, kind = np.array(array, dtype="<f8", order="C"), F64
-        else:
-            raise ParameterError(name, f"dtype {array.dtype}", "float64, int32 or strings")
-        shape, data = array.shape, array.tobytes()
-    if len(shape) > 8:
-        raise ParameterError(name, f"{len(shape)} dimensions", "at most 8")
-    return (struct.pack("<H", len(key)) + key + struct.pack("<BB", kind, len(shape))
-            + b"".join(struct.pack("<I", n) for n in shape) + data)
-
-
-def write_model_file(path, entries: dict) -> Path:
-    """resources/flexfmu_model.bin from {name: float64/int32 array or scalar, str, or list of str}."""
-    body = b"".join(_encode(name, value) for name, value in entries.items())
-    path = Path(path)
-    path.write_bytes(MAGIC + struct.pack("<II", FORMAT_VERSION, len(entries)) + body)
-    return path
-
-
-def read_model_file(path) -> dict:
-    """The entries of a model file (numpy arrays, str, or lists of str); ParameterError naming what is wrong."""
-    data = Path(path).read_bytes()
-    if data[:16] != MAGIC:
-        raise ParameterError(str(path), "not a flexfmu native model file (bad magic)")
-    version, n = struct.unpack_from("<II", data, 16)
-    if version != FORMAT_VERSION:
-        raise ParameterError(str(path), f"model-file format version {version}", f"version {FORMAT_VERSION}")
-    at, out = 24, {}
-    for _ in range(n):
-        (length,) = struct.unpack_from("<H", data, at)
-        name = data[at + 2:at + 2 + length].decode("utf-8")
-        at += 2 + length
-        kind, ndim = struct.unpack_from("<BB", data, at)
-        at += 2
-        shape = struct.unpack_from(f"<{ndim}I", data, at)
-        at += 4 * ndim
-        count = int(np.prod(shape)) if ndim else 1
-        if kind == STR:
-            items = []
-            for _ in range(count):
-                (size,) = struct.unpack_from("<I", data, at)
-                items.append(data[at + 4:at + 4 + size].decode("utf-8"))
-                at += 4 + size
-            out[name] = items[0] if ndim == 0 else items
-        else:
-            dtype = "<f8" if kind == F64 else "<i4"
-            width = 8 if kind == F64 else 4
-            array = np.frombuffer(data, dtype=dtype, count=count, offset=at).reshape(shape)
-            at += width * count
-            out[name] = array.copy()
-    if at != len(data):
-        raise ParameterError(str(path), f"{len(data) - at} bytes after the last entry", "none")
-    return out
-
-
 # ---------------------------------------------------------------------------------------------- what is built
-@dataclass(frozen=True)
-class RuntimeParameter:
-    """A parameter settable until fmi2ExitInitializationMode, checked there as the Python FMU checks it: a finite
-    number in [lo, hi] (ends open if asked; integers for Integer variables), or the special value, which the
-    model gets as ``replacement``."""
-
-    name: str
-    lo: float = -math.inf
-    hi: float = math.inf
-    lo_open: bool = False
-    hi_open: bool = False
-    allowed: str = "a finite number"
-    special: float | None = None
-    replacement: float = math.nan
-
-    @property
-    def flags(self) -> int:
-        return (LO_OPEN * self.lo_open | HI_OPEN * self.hi_open | SPECIAL * (self.special is not None))
-
-
 def _max_internal_steps() -> RuntimeParameter:
     from flexfmu.core.checks import DEFAULT_MAX_INTERNAL_STEPS, MAX_INTERNAL_STEPS_RANGE
     lo, hi = MAX_INTERNAL_STEPS_RANGE
@@ -240,36 +100,31 @@ class NativeSource:
 
 # ---------------------------------------------------------------------------------------------- modelDescription
 def _slave(source: NativeSource, resources: Path):
-    """A pythonfmu slave over flexfmu.fmi.plumbing for the source's spec (the Python FMU's class, made here), its
-    parameters at the build values."""
+    """A pythonfmu slave declaring the source's spec's variables (flexfmu.fmi.variables), its parameters at the
+    build values: what writes the modelDescription, as for the Python FMU of the same spec."""
     from pythonfmu import Fmi2Slave
 
-    from flexfmu.fmi.plumbing import Plumbing
-
-    spec = source.spec
+    from flexfmu.fmi.variables import declare
 
     def __init__(self, **kwargs):
         Fmi2Slave.__init__(self, **kwargs)
-        self.fmu = Plumbing(self, spec)
+        declare(self, source.spec, source.values)
 
     cls = type(source.name, (Fmi2Slave,), {"author": "flexfmu", "description": source.description,
                                            "__init__": __init__, "do_step": lambda self, t, h: True})
-    slave = cls(instance_name="native-build", resources=str(resources))
-    unknown = set(source.values) - set(slave.fmu._values)
-    if unknown:
-        raise ParameterError(sorted(unknown)[0], "not a parameter of this FMU", ", ".join(slave.fmu._values))
-    slave.fmu._values.update(source.values)
-    return slave
+    return cls(instance_name="native-build", resources=str(resources))
 
 
-def model_description(source: NativeSource, guid: str, slave) -> bytes:
-    """modelDescription.xml: pythonfmu's of the slave, completed as the Python FMUs' (flexfmu.fmi.build), with the
-    native runtime's capabilities and source files."""
+def model_description(source: NativeSource, guid: str) -> bytes:
+    """modelDescription.xml: pythonfmu's of the source's variables, completed as the Python FMUs' (flexfmu.fmi.build),
+    with the native runtime's capabilities and source files."""
     from flexfmu import __version__
     from flexfmu.fmi.build import _complete_model_description
 
-    slave.guid = guid
-    root = slave.to_xml()
+    with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
+        slave = _slave(source, Path(tmp))
+        slave.guid = guid
+        root = slave.to_xml()
     cosim = root.find("CoSimulation")
     cosim.set("canGetAndSetFMUstate", "true")
     cosim.set("canSerializeFMUstate", "true")
@@ -287,55 +142,12 @@ def model_description(source: NativeSource, guid: str, slave) -> bytes:
 
 
 # ---------------------------------------------------------------------------------------------- model entries
-def model_entries(source: NativeSource, guid: str, slave) -> dict:
-    """The model file's entries (module docstring; the LTI kind's: csrc/native_lti.c)."""
-    from pythonfmu import Boolean, Fmi2Causality, Integer, Real, String
-
-    plumbing = slave.fmu
-    variables = [plumbing._variables[vr] for vr in sorted(plumbing._variables)]
-    type_of = {Real: "Real", Integer: "Integer", Boolean: "Boolean", String: "String"}
-    runtime = {p.name: p for p in source.runtime}
-    params = [v.name for v in variables if v.causality == Fmi2Causality.parameter and v.name in runtime]
-    inputs, outputs = list(plumbing.input_names), list(plumbing.output_names)
-    names, types, causalities, index, start, texts = [], [], [], [], [], []
-    for v in variables:
-        kind = type_of[type(v)]
-        causality = {Fmi2Causality.parameter: "parameter", Fmi2Causality.input: "input",
-                     Fmi2Causality.output: "output"}[v.causality]
-        if causality == "parameter" and v.name in runtime and kind == "String":
-            raise ParameterError(v.name, "a String parameter cannot stay settable in a native FMU",
-                                 "fixed at build")
-        names.append(v.name)
-        types.append(TYPES[kind])
-        causalities.append(CAUSALITIES[causality])
-        index.append(params.index(v.name) if v.name in params else inputs.index(v.name) if causality == "input"
-                     else outputs.index(v.name) if causality == "output" else -1)
-        value = plumbing._values.get(v.name, 0.0) if causality == "parameter" else 0.0
-        start.append(0.0 if kind == "String" else float(value))
-        texts.append(str(value) if kind == "String" else "")
-    rules = [runtime[name] for name in params]
-    for rule in rules:
-        if rule.special is not None and not math.isfinite(rule.replacement):
-            raise ParameterError(rule.name, "a special value without a finite replacement")
-    entries = {
-        "kind": source.kind, "model": source.name, "guid": guid,
-        "var.name": names, "var.type": np.array(types, np.int32), "var.causality": np.array(causalities, np.int32),
-        "var.index": np.array(index, np.int32), "var.start": np.array(start, float), "var.start_string": texts,
-        "param.lo": np.array([r.lo for r in rules], float), "param.hi": np.array([r.hi for r in rules], float),
-        "param.flags": np.array([r.flags | INTEGER * (types[names.index(r.name)] == TYPES["Integer"])
-                                 for r in rules], np.int32),
-        "param.special": np.array([r.special if r.special is not None else 0.0 for r in rules], float),
-        "param.replacement": np.array([r.replacement if r.special is not None else 0.0 for r in rules], float),
-        "param.allowed": [r.allowed for r in rules],
-        "divergence_limit": np.float64(source.divergence_limit),
-        "divergence_allowed": source.divergence_allowed,
-        "rebuild": source.rebuild,
-        "rebuild.names": list(source.rebuild_settings),
-        "rebuild.values": [shlex.quote(v) for v in source.rebuild_settings.values()],
-        "messages": [str(m) for m in source.messages],
-        "outputs.deferred": np.array([outputs.index(name) for name in getattr(source.spec, "deferred_outputs", ())],
-                                     np.int32),
-    }
+def model_entries(source: NativeSource, guid: str) -> dict:
+    """The model file's entries (flexfmu.fmi.model_file; the LTI kind's: csrc/native_lti.c)."""
+    entries, inputs, outputs, params = model_file.entries(
+        source.spec, kind=source.kind, name=source.name, guid=guid, values=source.values, runtime=source.runtime,
+        messages=source.messages, divergence_limit=source.divergence_limit,
+        divergence_allowed=source.divergence_allowed, rebuild=source.rebuild, rebuild_settings=source.rebuild_settings)
     if source.kind == "lti":
         entries.update(_lti_entries(source.lti, inputs, outputs, params, source))
     else:
@@ -551,10 +363,10 @@ def build_native_fmu(source: NativeSource, target) -> Path:
     guid = "{" + str(uuid.uuid4()) + "}"
     runtime_names = {p.name for p in source.runtime}
     with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
-        slave = _slave(source, Path(tmp))
-        description = model_description(source, guid, slave)
-        entries = model_entries(source, guid, slave)
-        frozen = {k: v for k, v in slave.fmu._values.items() if k not in runtime_names}
+        description = model_description(source, guid)
+        entries = model_entries(source, guid)
+        built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
+        frozen = {k: v for k, v in built.items() if k not in runtime_names}
         model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)
         binary = compile_binary()
         info = {"version": __version__, "runtime": "native", "model": source.name, "kind": source.kind, "guid": guid,

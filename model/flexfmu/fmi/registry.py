@@ -92,8 +92,3 @@ FMUS: tuple[FmuSpec, ...] = (
 )
 BY_NAME = {spec.name: spec for spec in FMUS}
 
-
-def slave_script(spec: FmuSpec) -> str:
-    """The pythonfmu slave script of a registry entry (flexfmu.fmi.slave)."""
-    from flexfmu.fmi.slave import slave_script as script
-    return script(spec)

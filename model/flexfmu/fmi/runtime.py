@@ -1,13 +1,16 @@
 """The flexfmu FMU runtime: compile it and install it into a pythonfmu-built FMU.
 
 pythonfmu builds the modelDescription and the FMU's layout; its binary is replaced by ours
-(the C sources in flexfmu/fmi/csrc/, shipped with the package): a front library with no Python symbols (the FMI entry points, the
-call-sequence table, finding libpython) and a Python bridge compiled against this interpreter's
-headers.  The resources get what the binary needs to start Python and load the slave without any
+(the C sources in flexfmu/fmi/csrc/, shipped with the package): a front library with no Python symbols (the FMI entry
+points, the call-sequence table, finding libpython) and a bridge library, compiled against this interpreter's headers:
+the runtime every flexfmu FMU has (flexfmu_native.c: variables, checks, time, FMU states) over the Python kind
+(native_python.c), which calls the simulator through flexfmu.fmi.plumbing.  The resources get what the binary needs to start Python and load the slave without any
 set-up on the build machine, and what a user needs to move the FMU to another one:
 
 * ``flexfmu_runtime.txt``: libpython, the interpreter's home, the environment's site-packages;
 * ``flexfmu_build.json``: model, flexfmu version, build id (a digest of the bundled package), GUID;
+* ``flexfmu_model.bin``: the variables and their checks, as every flexfmu FMU's runtime reads them
+  (flexfmu.fmi.model_file; kind "python");
 * ``flexfmu_loader.py``: flexfmu/fmi/loader.py, run by the binary on each new extraction;
 * ``requirements.txt``: the exact versions of the packages the slave imports, built with.
 
@@ -77,8 +80,10 @@ def compile_runtime(folder: Path) -> tuple[Path, Path]:
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").is_file():
         raise RuntimeBuildError(f"Python.h not found in {include}: install this Python's headers (e.g. python3-dev)")
-    # no -lpython: the symbols come from the libpython the front loads globally, or from a Python host
-    _run([gcc, *common, f"-I{include}", str(RUNTIME / "flexfmu_python.c"), "-o", str(bridge)])
+    # the bridge: the one runtime (flexfmu_native.c) over the Python kind.  No -lpython: the symbols come from the
+    # libpython the front loads globally, or from a Python host
+    _run([gcc, *common, f"-I{include}", str(RUNTIME / "flexfmu_native.c"), str(RUNTIME / "native_python.c"),
+          "-o", str(bridge), "-lm"])
     return front, bridge
 
 
@@ -130,17 +135,23 @@ def requirements(root: str = "flexfmu") -> str:
         "\n".join(sorted(seen.values(), key=str.lower)) + "\n"
 
 
-def install(fmu: Path, front: Path, bridge: Path, build_info: dict) -> None:
-    """Put the runtime into the pythonfmu FMU at ``fmu`` (in place)."""
+def install(fmu: Path, front: Path, bridge: Path, build_info: dict, spec) -> None:
+    """Put the runtime into the pythonfmu FMU at ``fmu`` (in place), with the model file of ``spec``."""
+    from flexfmu.fmi import model_file
+
     members = archive.read_members(fmu)
     description = ET.fromstring(members["modelDescription.xml"])
     model_id = description.find("CoSimulation").get("modelIdentifier")
     info = {**build_info, "guid": description.get("guid"), "model": model_id}
+    entries, *_ = model_file.entries(spec, kind="python", name=model_id, guid=description.get("guid"))
     kept = {name: data for name, data in members.items()
             if not name.startswith(("binaries/", "resources/pythonfmu/")) and name != "resources/slavemodule.txt"}
     kept[f"binaries/linux64/{model_id}.so"] = front.read_bytes()
     kept[f"binaries/linux64/{model_id}_python.so"] = bridge.read_bytes()
     kept["resources/flexfmu_loader.py"] = LOADER.read_bytes()
+    with tempfile.TemporaryDirectory() as tmp:
+        kept[f"resources/{model_file.MODEL_FILE}"] = model_file.write_model_file(Path(tmp) / "model.bin",
+                                                                                 entries).read_bytes()
     kept["resources/flexfmu_build.json"] = json.dumps(info, indent=1).encode()
     kept["resources/flexfmu_runtime.txt"] = runtime_settings().encode()
     kept["resources/requirements.txt"] = requirements().encode()

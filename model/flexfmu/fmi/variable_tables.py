@@ -1,4 +1,5 @@
-"""The FMU variable tables of docs/fmu.md (Markdown), from the FMUs' specs: parameters with their defaults,
+"""The FMU variable tables of docs/fmu.md (Markdown), from the FMUs' variable tables (flexfmu.fmi.variables, whence
+the modelDescription and the model file come too): parameters with their defaults,
 inputs and outputs with unit and description; vector components (_x/_y/_z, _1/_2/_3, q_w..q_z) share a row.
 Each table sits between ``<!-- variables:NAME -->`` and ``<!-- /variables:NAME -->``;
 build_scripts/document_fmus.py rewrites docs/fmu.md and tests/test_docs_fmu.py checks it is up to date.
@@ -6,9 +7,9 @@ build_scripts/document_fmus.py rewrites docs/fmu.md and tests/test_docs_fmu.py c
 from __future__ import annotations
 
 import re
-from dataclasses import asdict
 
 from flexfmu.errors import ParameterError
+from flexfmu.fmi import variables
 from flexfmu.fmi.registry import BY_NAME, FMUS
 
 #: the FMUs whose variables docs/fmu.md tables
@@ -47,18 +48,17 @@ def table(fmu) -> str:
     """The Markdown variable table of an FMU: a registry name, or any spec with config_class, input_names,
     output_names and variable_info (flexfmu.fmi.registry.FmuSpec, flexfmu.fmi.export.ExportedSpec)."""
     spec = BY_NAME[fmu] if isinstance(fmu, str) else fmu
-    defaults = asdict(spec.config_class())
-    info = spec.variable_info
+    rows = {v.name: v for v in variables.table(spec)}       # the FMU's one variable table
     lines = ["| variable | causality | default | unit | description |", "|---|---|---|---|---|"]
-    for names, causality in ((list(defaults), "parameter"), (list(spec.input_names), "input"),
-                             (list(spec.output_names), "output")):
-        for base, axes in _groups(names):
+    for causality in ("parameter", "input", "output"):
+        for base, axes in _groups([v.name for v in rows.values() if v.causality == causality]):
             members = [f"{base}_{a}" for a in axes] or [base]
             label = f"{base}_{'/'.join(axes)}" if axes else base
-            default = ", ".join(repr(defaults[n]) for n in members) if causality == "parameter" else ""
-            unit, text = info[members[0]]
-            text = _describe(text, axes).replace("|", "\\|")      # a bare | would split the table cell
-            lines.append(f"| `{label}` | {causality} | {default} | {unit or '–'} | {text} |".replace("|  |", "| |"))
+            default = ", ".join(repr(rows[n].start) for n in members) if causality == "parameter" else ""
+            first = rows[members[0]]
+            text = _describe(first.description, axes).replace("|", "\\|")      # a bare | would split the table cell
+            lines.append(f"| `{label}` | {causality} | {default} | {first.unit or '–'} | {text} |"
+                         .replace("|  |", "| |"))
     return "\n".join(lines)
 
 

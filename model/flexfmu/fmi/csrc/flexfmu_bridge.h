@@ -1,9 +1,9 @@
 /*
- * flexfmu_bridge.h - the interface between the FMU's front library (flexfmu_fmi2.c: FMI 2.0 entry
- * points, call-sequence table, finding libpython; no Python symbols) and the Python bridge
- * (flexfmu_python.c: compiled against Python.h, loaded by the front once libpython's symbols are
- * global).  The front owns FMI semantics; the bridge only turns calls into Python method calls on the
- * slave's plumbing (flexfmu.fmi.plumbing) and Python exceptions into statuses and one log message.
+ * flexfmu_bridge.h - the interface between the FMU's front (flexfmu_fmi2.c: FMI 2.0 entry points, call-sequence
+ * table, FMU-state header, finding libpython; no Python symbols) and the runtime under it (flexfmu_native.c:
+ * variables, checks, time, FMU states, over a model kind, native_kind.h).  A native FMU links the runtime into the
+ * front's library; a Python FMU's runtime, over the Python kind (native_python.c, compiled against Python.h), is a
+ * second library the front loads once libpython's symbols are global.
  */
 #ifndef FLEXFMU_BRIDGE_H
 #define FLEXFMU_BRIDGE_H
@@ -50,7 +50,7 @@ typedef struct {
     /* get: `values` is double*, int* (fmi2Integer/fmi2Boolean) or const char ** (valid until the next call) */
     int (*get_values)(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, void *values);
     int (*set_values)(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, const void *values);
-    /* FMU states are opaque Python objects owned by the caller until free_state. */
+    /* FMU states are opaque, owned by the caller until free_state. */
     int (*get_state)(void *slave, void **state);
     int (*set_state)(void *slave, void *state);
     void (*free_state)(void *state);

@@ -7,11 +7,12 @@
  *     the build environment's site-packages), each overridable by an environment variable
  *     (FLEXFMU_LIBPYTHON, FLEXFMU_PYTHONHOME, FLEXFMU_SITE_PACKAGES) for another machine;
  *  2. loads libpython with RTLD_GLOBAL unless the process already has Python's symbols (a Python host);
- *  3. loads the Python bridge <id>_python.so next to this file (flexfmu_python.c) and starts Python.
+ *  3. loads the bridge <id>_python.so next to this file (the runtime, flexfmu_native.c, over the Python kind,
+ *     native_python.c) and starts Python.
  * It owns the FMI semantics: the call-sequence table below (one row per function: the states in
  * which it is legal), argument checks, state transitions, the FMU-state wrapper and its serialised
  * header, and the host's logging settings.  The bridge only runs the slave's Python.
- * Nothing is ever dlclose()d or finalised (see flexfmu_python.c): the host may unload this library.
+ * Nothing is ever dlclose()d or finalised (see native_python.c): the host may unload this library.
  *
  * Native FMUs (flexfmu.fmi.native; docs/fmu.md, "Native runtime") compile this same file with -DFLEXFMU_NATIVE
  * (or through native_front.c) and link it statically with the native bridge (flexfmu_native.c) and a model
@@ -89,7 +90,7 @@ typedef enum {
 
 /* The one legal-call table (docs/fmu.md prints it).  Unsupported capabilities have no legal state
    and their own message.  Parameters (variability fixed) are settable only before
-   fmi2ExitInitializationMode: the plumbing checks that per variable. */
+   fmi2ExitInitializationMode: the runtime checks that per variable. */
 static const struct {
     const char *name;
     int states;
@@ -192,7 +193,7 @@ typedef struct {
     uint32_t magic, layout, runtime;
     char guid[128]; /* the FMU's GUID (cut to 127 bytes; the full GUID is compared on deserialising) */
     int fmi_state;  /* the instance's FMI state when it was taken: fmi2SetFMUstate restores it too */
-    void *python;   /* the bridge's state (the plumbing's object, or the native snapshot) */
+    void *python;   /* the runtime's snapshot (flexfmu_native.c) */
 } StateBox;
 
 static char *copy_string(const char *text) {

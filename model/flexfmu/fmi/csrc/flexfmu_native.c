@@ -1,30 +1,30 @@
 /*
- * flexfmu_native.c - the native bridge of the flexfmu FMUs: BridgeApi (flexfmu_bridge.h) in C99 with no
- * Python, linked statically with the front (flexfmu_fmi2.c compiled with -DFLEXFMU_NATIVE, or
- * native_front.c) and a model kind (native_kind.h; native_lti.c) into the FMU's one shared library.
+ * flexfmu_native.c - the one runtime of every flexfmu FMU: BridgeApi (flexfmu_bridge.h) in C99 over a model kind
+ * (native_kind.h).  A native FMU links it statically with the front (flexfmu_fmi2.c compiled with -DFLEXFMU_NATIVE,
+ * or native_front.c) and the native kinds (native_kinds.c: native_lti.c, native_reframe.c) into its one shared
+ * library; a Python FMU's bridge library is it over the Python kind (native_python.c), which calls a simulator
+ * written in Python through flexfmu.fmi.plumbing.
  *
- * It does for a native FMU what flexfmu.fmi.plumbing does for a Python one, with the same value
- * references, the same checks and the same messages where the cases are the same:
- *  - reads the reduced model from resources/flexfmu_model.bin (format: flexfmu/fmi/native.py, docs/fmu.md)
- *    on each fmi2Instantiate (instances share nothing);
+ * It holds everything an FMU does that does not depend on the model's equations:
+ *  - reads the model from resources/flexfmu_model.bin (format: flexfmu/fmi/model_file.py, docs/fmu.md) on each
+ *    fmi2Instantiate (instances share nothing);
  *  - holds the variables: parameters (structural ones fixed at build: their build value is accepted, another
  *    is refused naming the parameter, its build value and the rebuild command; runtime ones settable until
- *    fmi2ExitInitializationMode and range-checked there), inputs (held from fmi2DoStep on: outputs read
- *    after new inputs are set are still those of the last step's inputs), outputs (each computed when first read
- *    after a step: a host that reads 3 of 25 outputs pays for 3; a validity flag per output.  An FMU state holds
- *    every output but the deferred ones, the model file's outputs.deferred (a costly search such as
+ *    fmi2ExitInitializationMode and range-checked there, String ones too), inputs (held from fmi2DoStep on: outputs
+ *    read after new inputs are set are still those of the last step's inputs), outputs (each computed when first
+ *    read after a step: a host that reads 3 of 25 outputs pays for 3; a validity flag per output.  An FMU state
+ *    holds every output but the deferred ones, the model file's outputs.deferred (a costly search such as
  *    max_elastic_displacement), which it holds only if they were read);
- *  - refuses non-finite values when set, a currentCommunicationPoint that is not the FMU's time, a state or
- *    output that is not finite or beyond the model's divergence limit (naming the input behind it, else
- *    "state"), each with one message through the front's log (fmi2Error, category logStatusError; a step a
- *    smaller one may take: fmi2Discard, logStatusDiscard); status-OK messages (what the model holds and
- *    chose) go out with category logAll;
- *  - FMU states hold everything: the variables' values, the held inputs, the outputs, the time, the start
- *    time and the kind's state vector; serialised as the layout below (after the front's header).
- * No globals are written: everything is per instance, so instances in any number and on any threads (one
- * call at a time per instance, which the front ensures) are independent.
- * Over 500 lines on purpose: the plumbing's job in C (model file, variables, checks, FMU states), one section
- * each; the model's equations are in the kinds.
+ *  - refuses non-finite values and strings that are not UTF-8 when set, a currentCommunicationPoint that is not the
+ *    FMU's clock, a state or output that is not finite or beyond the model's divergence limit (naming the input
+ *    behind it, else "state"), each with one message through the front's log (fmi2Error, category
+ *    logStatusError; a step a smaller one may take: fmi2Discard, logStatusDiscard); status-OK messages (what the
+ *    model holds and chose) go out with category logAll;
+ *  - FMU states hold everything: the variables' values, the held inputs, the outputs, the time, the start time,
+ *    the clock, the kind's state vector and the kind's own saved state (the Python kind's simulator); serialised as
+ *    the layout below (after the front's header).
+ * No globals are written: everything is per instance, so instances in any number and on any threads (one call at a
+ * time per instance, which the front ensures) are independent.
  */
 #include <float.h>
 #include <math.h>
@@ -43,7 +43,7 @@ static const char FILE_MAGIC[16] = {'f', 'l', 'e', 'x', 'f', 'm', 'u', '-', 'n',
 #define FILE_VERSION 1u
 /* the serialised FMU state's content (after the front's header) */
 static const char STATE_MAGIC[8] = {'F', 'X', 'N', 'A', 'T', 'I', 'V', 'E'};
-#define STATE_VERSION 2u
+#define STATE_VERSION 3u
 
 enum { REAL = 0, INTEGER = 1, BOOLEAN = 2, STRING = 3 };
 enum { PARAMETER = 0, INPUT = 1, OUTPUT = 2 };
@@ -52,11 +52,6 @@ enum { LO_OPEN = 1, HI_OPEN = 2, IS_INTEGER = 4, HAS_SPECIAL = 8 };
 static const char *const TYPE_NAMES[] = {"Real", "Integer", "Boolean", "String"};
 static const char *const GET_NAMES[] = {"fmi2GetReal", "fmi2GetInteger", "fmi2GetBoolean", "fmi2GetString"};
 static const char *const SET_NAMES[] = {"fmi2SetReal", "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString"};
-
-/* ---- the kinds ----------------------------------------------------------------------------------- */
-
-extern const NativeKind native_lti_kind, native_reframe_kind;
-static const NativeKind *const KINDS[] = {&native_lti_kind, &native_reframe_kind};
 
 /* ---- helpers for the kinds ---------------------------------------------------------------------- */
 
@@ -392,6 +387,7 @@ typedef struct {
     void *model; /* the kind's */
     NativeLayout layout;
     const char *guid, *name, *rebuild, *divergence_allowed;
+    char *resources; /* the FMU's resources folder (the kinds may read more files there) */
     size_t n_vars, nx, n_messages, n_rebuild;
     char *const *rebuild_names, *const *rebuild_values; /* the other fixed settings of the rebuild command */
     Variable *vars;
@@ -403,15 +399,19 @@ typedef struct {
     char *const *messages;
 } Model;
 
-/* What an FMU state holds (the plumbing's get_fmu_state); also the instance's own current values.  valid[i]:
+/* What an FMU state holds; also the instance's own current values.  valid[i]:
    outputs[i] is that of x with held (computed since the last step). */
 typedef struct {
     int initialised;
     unsigned char *valid; /* per output */
     double time, start_time;
-    double clock;   /* the host's time of the next step's start (flexfmu.fmi.plumbing: the clock) */
-    double *values; /* per variable: parameters' and inputs' values (outputs, strings: 0) */
-    double *held;   /* the inputs the kind got at the last step (or initialisation) */
+    double clock;         /* the host's time of the next step's start */
+    double *values;       /* per variable: parameters' and inputs' values (outputs, strings: 0) */
+    char **texts;         /* per variable: a String parameter's value if it is settable (owned), else NULL */
+    size_t n_texts;       /* n_vars */
+    unsigned char *saved; /* the kind's own state (NativeKind.save; owned) in an FMU state, else NULL */
+    size_t saved_size;
+    double *held; /* the inputs the kind got at the last step (or initialisation) */
     double *outputs;
     double *x;
 } Snapshot;
@@ -419,8 +419,9 @@ typedef struct {
 typedef struct {
     Model m;
     Snapshot now;
-    void *sim;      /* the kind's simulator; NULL before fmi2ExitInitializationMode */
-    double *params; /* the runtime parameters as the simulator got them (special values replaced) */
+    void *sim;                /* the kind's simulator; NULL before fmi2ExitInitializationMode */
+    double *params;           /* the runtime parameters as the simulator got them (special values replaced) */
+    const char **param_texts; /* and the String ones' values */
     double *scratch_x, *scratch_y;
     unsigned char *scratch_which; /* per output: asked of the kind, then written by it */
     double *state_held; /* the inputs the current state's step held (at initialisation: those held then; after a
@@ -439,6 +440,7 @@ static void free_model(Model *m) {
     free(m->input_vr);
     free(m->output_vr);
     free(m->deferred);
+    free(m->resources);
     free_file(m->file);
     memset(m, 0, sizeof *m);
 }
@@ -461,8 +463,8 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
                  guid, m->guid);
         return -1;
     }
-    for (size_t k = 0; k < sizeof KINDS / sizeof *KINDS; k++)
-        if (strcmp(KINDS[k]->name, kind) == 0) m->kind = KINDS[k];
+    for (size_t k = 0; k < native_kind_count; k++)
+        if (strcmp(native_kinds[k]->name, kind) == 0) m->kind = native_kinds[k];
     if (!m->kind) {
         snprintf(why, why_size,
                  "the model is of kind '%s', which this runtime does not have (rebuild the FMU with "
@@ -493,8 +495,7 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
         Variable *v = &m->vars[i];
         *v = (Variable){names[i], type[i], causality[i], index[i], start[i], texts[i]};
         if (v->type < REAL || v->type > STRING || v->causality < PARAMETER || v->causality > OUTPUT
-            || ((v->causality != PARAMETER || v->index >= 0) && v->type == STRING)
-            || ((v->causality != PARAMETER) && v->type != REAL)) {
+            || (v->causality != PARAMETER && v->type == STRING) || ((v->causality != PARAMETER) && v->type != REAL)) {
             snprintf(why, why_size, "model file: variable %s has an unsupported type or causality", v->name);
             return -1;
         }
@@ -568,6 +569,9 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
         }
         m->layout.n_deferred = nd[0];
     }
+    if (!(m->resources = malloc(strlen(resources) + 1))) goto memory;
+    strcpy(m->resources, resources);
+    m->layout.resources = m->resources;
     m->layout.deferred = m->deferred;
     m->layout.input_names = m->input_names;
     m->layout.output_names = m->output_names;
@@ -582,17 +586,35 @@ memory:
 
 /* ---- snapshots ------------------------------------------------------------------------------------ */
 
+/* A settable String parameter: its value lives in the snapshot's texts. */
+static int settable_text(const Variable *v) { return v->type == STRING && v->causality == PARAMETER && v->index >= 0; }
+
+static char *copy_text(const char *text) {
+    char *copy = malloc(strlen(text) + 1);
+    if (copy) strcpy(copy, text);
+    return copy;
+}
+
 static int snapshot_alloc(const Model *m, Snapshot *s) {
     memset(s, 0, sizeof *s);
     s->values = calloc(m->n_vars + 1, sizeof *s->values);
+    s->texts = calloc(m->n_vars + 1, sizeof *s->texts);
+    s->n_texts = m->n_vars;
     s->held = calloc(m->layout.n_inputs + 1, sizeof *s->held);
     s->outputs = calloc(m->layout.n_outputs + 1, sizeof *s->outputs);
     s->x = calloc(m->nx + 1, sizeof *s->x);
     s->valid = calloc(m->layout.n_outputs + 1, 1);
-    return s->values && s->held && s->outputs && s->x && s->valid ? 0 : -1;
+    return s->values && s->texts && s->held && s->outputs && s->x && s->valid ? 0 : -1;
+}
+
+static void free_texts(Snapshot *s) {
+    for (size_t i = 0; s->texts && i < s->n_texts; i++) free(s->texts[i]), s->texts[i] = NULL;
 }
 
 static void snapshot_free(Snapshot *s) {
+    free_texts(s);
+    free(s->texts);
+    free(s->saved);
     free(s->values);
     free(s->held);
     free(s->outputs);
@@ -601,7 +623,11 @@ static void snapshot_free(Snapshot *s) {
     memset(s, 0, sizeof *s);
 }
 
-static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
+/* Everything but the kind's saved state; -1 when out of memory (`to` then holds no texts). */
+static int snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
+    free_texts(to);
+    for (size_t i = 0; i < m->n_vars; i++)
+        if (from->texts[i] && !(to->texts[i] = copy_text(from->texts[i]))) return -1;
     to->initialised = from->initialised;
     memcpy(to->valid, from->valid, m->layout.n_outputs);
     to->time = from->time;
@@ -611,14 +637,18 @@ static void snapshot_copy(const Model *m, Snapshot *to, const Snapshot *from) {
     memcpy(to->held, from->held, m->layout.n_inputs * sizeof *to->held);
     memcpy(to->outputs, from->outputs, m->layout.n_outputs * sizeof *to->outputs);
     memcpy(to->x, from->x, m->nx * sizeof *to->x);
+    return 0;
 }
 
-/* The state after fmi2Instantiate / fmi2Reset: start values, no simulator. */
-static void clear(Slave *s) {
+/* The state after fmi2Instantiate / fmi2Reset: start values, no simulator; -1 when out of memory. */
+static int clear(Slave *s) {
     const Model *m = &s->m;
     Snapshot *now = &s->now;
-    for (size_t i = 0; i < m->n_vars; i++)
+    free_texts(now);
+    for (size_t i = 0; i < m->n_vars; i++) {
         now->values[i] = m->vars[i].type == STRING || m->vars[i].causality == OUTPUT ? 0.0 : m->vars[i].start;
+        if (settable_text(&m->vars[i]) && !(now->texts[i] = copy_text(m->vars[i].text))) return -1;
+    }
     memset(now->held, 0, m->layout.n_inputs * sizeof *now->held);
     memset(now->outputs, 0, m->layout.n_outputs * sizeof *now->outputs);
     memset(now->x, 0, m->nx * sizeof *now->x);
@@ -627,6 +657,7 @@ static void clear(Slave *s) {
     now->time = now->start_time = now->clock = 0.0;
     if (s->sim) m->kind->free_sim(s->sim);
     s->sim = NULL;
+    return 0;
 }
 
 /* ---- messages ------------------------------------------------------------------------------------- */
@@ -663,16 +694,17 @@ static NativeResult new_result(Slave *s) {
 
 /* ---- parameters --------------------------------------------------------------------------------- */
 
-/* The runtime parameters of `values` checked (ranges, in their order) into `params` (special values replaced),
-   or a refusal naming the first one out of range. */
-static int check_parameters(Slave *s, const double *values, double *params) {
+/* The runtime parameters of `values` checked (ranges, in their order) into `params` (special values replaced)
+   and, for String ones, `texts` into s->param_texts, or a refusal naming the first one out of range. */
+static int check_parameters(Slave *s, const double *values, char *const *texts, double *params) {
     const Model *m = &s->m;
     for (size_t k = 0; k < m->layout.n_params; k++) {
         const ParameterRule *r = &m->rules[k];
         const Variable *v = &m->vars[r->vr];
         double value = values[r->vr];
         params[k] = value;
-        if (v->type == BOOLEAN) continue;
+        s->param_texts[k] = v->type == STRING ? texts[r->vr] : NULL;
+        if (v->type == BOOLEAN || v->type == STRING) continue;
         if ((r->flags & HAS_SPECIAL) && value == r->special) {
             params[k] = r->replacement;
             continue;
@@ -691,11 +723,11 @@ static int check_parameters(Slave *s, const double *values, double *params) {
     return BRIDGE_OK;
 }
 
-/* A simulator of the parameters in `values` (checked), its state in x; NULL after logging why. */
-static void *make_sim(Slave *s, const double *values, double *x) {
-    if (check_parameters(s, values, s->params) != BRIDGE_OK) return NULL;
+/* A simulator of the parameters in `values` and `texts` (checked), its state in x; NULL after logging why. */
+static void *make_sim(Slave *s, const double *values, char *const *texts, double *x) {
+    if (check_parameters(s, values, texts, s->params) != BRIDGE_OK) return NULL;
     NativeResult r = new_result(s);
-    void *sim = s->m.kind->init(s->m.model, s->params, x, &r);
+    void *sim = s->m.kind->init(s->m.model, s->params, s->param_texts, x, &r);
     if (!sim)
         refuse(s, r.status >= BRIDGE_DISCARD ? r.status : BRIDGE_ERROR, "%s",
                r.message[0] ? r.message : "the model cannot be set up (out of memory?)");
@@ -778,8 +810,9 @@ static int read_all_outputs(Slave *s, int with_deferred) {
 /* ---- BridgeApi ------------------------------------------------------------------------------------- */
 
 static int start(const BridgeSettings *settings, char *error, size_t error_size) {
-    (void)settings, (void)error, (void)error_size;
-    return 0; /* nothing to start: no interpreter, no shared state */
+    for (size_t k = 0; k < native_kind_count; k++) /* the Python kind: its interpreter; the others: nothing */
+        if (native_kinds[k]->start && native_kinds[k]->start(settings, error, error_size) < 0) return -1;
+    return 0;
 }
 
 static void free_slave(Slave *s) {
@@ -787,6 +820,7 @@ static void free_slave(Slave *s) {
     if (s->sim) s->m.kind->free_sim(s->sim);
     snapshot_free(&s->now);
     free(s->params);
+    free(s->param_texts);
     free(s->scratch_x);
     free(s->scratch_y);
     free(s->scratch_which);
@@ -814,6 +848,7 @@ static void *instantiate(const char *resources_dir, const char *instance_name, c
         return NULL;
     }
     if (snapshot_alloc(&s->m, &s->now) < 0 || !(s->params = calloc(s->m.layout.n_params + 1, sizeof *s->params))
+        || !(s->param_texts = calloc(s->m.layout.n_params + 1, sizeof *s->param_texts))
         || !(s->scratch_x = calloc(s->m.nx + 1, sizeof *s->scratch_x))
         || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))
         || !(s->scratch_which = calloc(s->m.layout.n_outputs + 1, 1))
@@ -822,7 +857,11 @@ static void *instantiate(const char *resources_dir, const char *instance_name, c
         free_slave(s);
         return NULL;
     }
-    clear(s);
+    if (clear(s) < 0) {
+        log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
+        free_slave(s);
+        return NULL;
+    }
     return s;
 }
 
@@ -838,7 +877,7 @@ static int setup_experiment(void *slave, int tolerance_defined, double tolerance
 static int exit_initialization_mode(Slave *s) {
     Snapshot *now = &s->now;
     double *x = s->scratch_x;
-    void *sim = make_sim(s, now->values, x);
+    void *sim = make_sim(s, now->values, now->texts, x);
     if (!sim) return BRIDGE_ERROR;
     s->sim = sim;
     memcpy(now->x, x, s->m.nx * sizeof *x);
@@ -855,7 +894,7 @@ static int simple_call(void *slave, BridgeSimpleCall call) {
     Slave *s = slave;
     switch (call) {
     case CALL_EXIT_INITIALIZATION_MODE: return exit_initialization_mode(s);
-    case CALL_RESET: clear(s); return BRIDGE_OK;
+    case CALL_RESET: return clear(s) < 0 ? refuse(s, BRIDGE_ERROR, "fmi2Reset: out of memory") : BRIDGE_OK;
     case CALL_TERMINATE:
         if (s->sim && s->m.kind->report) {
             NativeResult r = new_result(s);
@@ -866,8 +905,8 @@ static int simple_call(void *slave, BridgeSimpleCall call) {
     }
 }
 
-/* flexfmu.fmi.plumbing.CLOCK_EPS: currentCommunicationPoint equals the clock within 16 eps |t| (the rounding of one
-   step: the clock is the host's last point plus its step, never a sum over the run) */
+/* currentCommunicationPoint equals the clock within 16 eps |t| (the rounding of one step: the clock is the host's
+   last point plus its step, never a sum over the run); a skipped or repeated step differs by a whole step */
 #define CLOCK_EPS 16.0
 
 static int do_step(void *slave, double current_time, double h) {
@@ -942,7 +981,7 @@ static int do_step(void *slave, double current_time, double h) {
 
 /* ---- values ------------------------------------------------------------------------------------------ */
 
-/* The refusal for the first value reference of `vr` that this call cannot take (the plumbing's order). */
+/* The refusal for the first value reference of `vr` that this call cannot take. */
 static int refuse_reference(Slave *s, const char *function, BridgeValueType type, const unsigned int *vr, size_t nvr,
                             int setting) {
     for (size_t i = 0; i < nvr; i++) {
@@ -989,7 +1028,7 @@ static int get_values(void *slave, BridgeValueType type, const unsigned int *vr,
         case VALUE_REAL: ((double *)values)[i] = value; break;
         case VALUE_INTEGER: ((int *)values)[i] = (int)value; break;
         case VALUE_BOOLEAN: ((int *)values)[i] = value != 0.0; break;
-        case VALUE_STRING: ((const char **)values)[i] = v->text; break;
+        case VALUE_STRING: ((const char **)values)[i] = settable_text(v) ? s->now.texts[vr[i]] : v->text; break;
         }
     }
     return BRIDGE_OK;
@@ -1045,6 +1084,22 @@ static void rebuild_command(const Model *m, const char *name, const char *value,
     snprintf(out + used, size - used, " --set %s", word);
 }
 
+/* The bytes are UTF-8 (RFC 3629: no overlong forms, no surrogates, at most U+10FFFF). */
+static int is_utf8(const char *text) {
+    const unsigned char *c = (const unsigned char *)text;
+    while (*c) {
+        int n = *c < 0x80 ? 0 : (*c & 0xE0) == 0xC0 ? 1 : (*c & 0xF0) == 0xE0 ? 2 : (*c & 0xF8) == 0xF0 ? 3 : -1;
+        if (n < 0 || (n == 1 && *c < 0xC2) || (n == 3 && *c > 0xF4)) return 0;
+        for (int k = 1; k <= n; k++)
+            if ((c[k] & 0xC0) != 0x80) return 0;
+        if ((n == 2 && *c == 0xE0 && c[1] < 0xA0) || (n == 2 && *c == 0xED && c[1] >= 0xA0)
+            || (n == 3 && *c == 0xF0 && c[1] < 0x90) || (n == 3 && *c == 0xF4 && c[1] >= 0x90))
+            return 0;
+        c += n + 1;
+    }
+    return 1;
+}
+
 static int set_values(void *slave, BridgeValueType type, const unsigned int *vr, size_t nvr, const void *values) {
     Slave *s = slave;
     const char *function = SET_NAMES[type];
@@ -1065,7 +1120,10 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
             return refuse(s, BRIDGE_ERROR, "%s: %s: got %s (allowed: a finite number)", function, v->name, shown);
         }
         if (type == VALUE_STRING && !text)
-            return refuse(s, BRIDGE_ERROR, "%s: %s: got None (allowed: a UTF-8 string)", function, v->name);
+            return refuse(s, BRIDGE_ERROR, "%s: %s: got NULL (allowed: a UTF-8 string)", function, v->name);
+        if (type == VALUE_STRING && !is_utf8(text))
+            return refuse(s, BRIDGE_ERROR, "%s: %s: got bytes that are not UTF-8 (allowed: a UTF-8 string)", function,
+                          v->name);
         if (v->causality == PARAMETER && v->index < 0) { /* fixed at build: its build value only */
             int same = type == VALUE_STRING ? strcmp(text, v->text) == 0 : value == v->start;
             if (!same) {
@@ -1084,7 +1142,12 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
     }
     for (size_t i = 0; i < nvr; i++) {
         const Variable *v = &s->m.vars[vr[i]];
-        if (type == VALUE_STRING) continue; /* fixed strings: equal to the build value, checked above */
+        if (type == VALUE_STRING) { /* fixed strings: equal to the build value, checked above */
+            char *copy = settable_text(v) ? copy_text(((const char *const *)values)[i]) : NULL;
+            if (settable_text(v) && !copy) return refuse(s, BRIDGE_ERROR, "%s: out of memory", function);
+            if (copy) free(s->now.texts[vr[i]]), s->now.texts[vr[i]] = copy;
+            continue;
+        }
         double value = type == VALUE_REAL      ? ((const double *)values)[i]
                        : type == VALUE_INTEGER ? (double)((const int *)values)[i]
                                                : (double)(((const int *)values)[i] != 0);
@@ -1097,17 +1160,26 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
 
 static int get_state(void *slave, void **state) {
     Slave *s = slave;
+    const Model *m = &s->m;
     if (s->sim) { /* the state holds every output but the deferred ones, which are computed only when read */
         int status = read_all_outputs(s, 0);
         if (status != BRIDGE_OK) return status;
     }
     Snapshot *copy = malloc(sizeof *copy);
-    if (!copy || snapshot_alloc(&s->m, copy) < 0) {
+    if (!copy || snapshot_alloc(m, copy) < 0 || snapshot_copy(m, copy, &s->now) < 0) {
         if (copy) snapshot_free(copy);
         free(copy);
         return refuse(s, BRIDGE_ERROR, "fmi2GetFMUstate: out of memory");
     }
-    snapshot_copy(&s->m, copy, &s->now);
+    if (s->sim && m->kind->save) { /* the kind's own state beside x (the Python kind's simulator) */
+        NativeResult r = new_result(s);
+        int status = m->kind->save(s->sim, &copy->saved, &copy->saved_size, &r);
+        if (status != BRIDGE_OK) {
+            snapshot_free(copy);
+            free(copy);
+            return refuse(s, status, "fmi2GetFMUstate: %s", r.message);
+        }
+    }
     *state = copy;
     return BRIDGE_OK;
 }
@@ -1118,10 +1190,13 @@ static void free_state(void *state) {
     free(state);
 }
 
-/* The runtime parameters of two value vectors are equal. */
-static int same_parameters(const Model *m, const double *a, const double *b) {
-    for (size_t k = 0; k < m->layout.n_params; k++)
-        if (a[m->rules[k].vr] != b[m->rules[k].vr]) return 0;
+/* The runtime parameters of two snapshots are equal. */
+static int same_parameters(const Model *m, const Snapshot *a, const Snapshot *b) {
+    for (size_t k = 0; k < m->layout.n_params; k++) {
+        int vr = m->rules[k].vr;
+        if (a->values[vr] != b->values[vr]) return 0;
+        if (a->texts[vr] && b->texts[vr] && strcmp(a->texts[vr], b->texts[vr]) != 0) return 0;
+    }
     return 1;
 }
 
@@ -1131,35 +1206,53 @@ static int set_state(void *slave, void *state) {
     const Model *m = &s->m;
     void *sim = NULL;
     if (from->initialised) {
-        if (s->sim && same_parameters(m, from->values, s->now.values)) {
+        if (s->sim && same_parameters(m, from, &s->now)) {
             sim = s->sim;
-        } else if (!(sim = make_sim(s, from->values, s->scratch_x))) { /* another configuration: its simulator */
+        } else if (!(sim = make_sim(s, from->values, from->texts, s->scratch_x))) { /* another configuration */
             return BRIDGE_ERROR;
         }
+        if (m->kind->restore) {
+            NativeResult r = new_result(s);
+            int status = from->saved ? m->kind->restore(sim, from->saved, from->saved_size, &r)
+                                     : native_refuse(&r, BRIDGE_ERROR, "the state holds no simulator state");
+            if (status != BRIDGE_OK) {
+                if (sim != s->sim) m->kind->free_sim(sim);
+                return refuse(s, status, "fmi2SetFMUstate: %s", r.message);
+            }
+        }
+    }
+    if (snapshot_copy(m, &s->now, from) < 0) {
+        if (sim != s->sim) m->kind->free_sim(sim);
+        return refuse(s, BRIDGE_ERROR, "fmi2SetFMUstate: out of memory");
     }
     if (s->sim && sim != s->sim) m->kind->free_sim(s->sim);
     s->sim = sim;
-    snapshot_copy(m, &s->now, from);
     memcpy(s->state_held, from->held, m->layout.n_inputs * sizeof *from->held);
     for (size_t i = 0; i < m->layout.n_outputs; i++) /* the outputs of the state's last step, as taken */
         s->now.valid[i] = from->initialised && (!m->deferred[i] || from->valid[i]);
     return BRIDGE_OK;
 }
 
-static size_t serialized_size(const Model *m) {
-    return 8 + 4 * 6 + 8 * (3 + m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx);
+#define STATE_FIXED 56 /* the layout's fixed part: magic, 6 u32, 3 f64 */
+
+static size_t serialized_size(const Model *m, const Snapshot *st) {
+    size_t n = STATE_FIXED + 8 * (m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx) + 8 + st->saved_size;
+    for (size_t i = 0; i < m->n_vars; i++)
+        if (settable_text(&m->vars[i])) n += 4 + strlen(st->texts[i]);
+    return n;
 }
 
 /* Layout (little-endian): "FXNATIVE", u32 STATE_VERSION, u32 n_vars, u32 n_inputs, u32 n_outputs, u32 nx,
    u32 flags (1: initialised, 2: outputs valid, 4: deferred outputs valid too; a state without 4 has them computed
    when read), f64 time (since the start), f64 start time, f64 clock (the host's time of the next step's start),
-   f64 values[n_vars] (parameters, inputs; 0 for outputs and
-   strings), f64 held[n_inputs], f64 outputs[n_outputs], f64 x[nx]. */
+   f64 values[n_vars] (parameters, inputs; 0 for outputs and strings), f64 held[n_inputs], f64 outputs[n_outputs],
+   f64 x[nx], then each settable String parameter's value (value-reference order: u32 length, UTF-8 bytes), then
+   u64 length and the bytes of the kind's own state (NativeKind.save; length 0 for a kind without). */
 static int serialize_state(void *slave, void *state, char *bytes, size_t *size) {
     Slave *s = slave;
     const Model *m = &s->m;
     const Snapshot *st = state;
-    size_t n = serialized_size(m);
+    size_t n = serialized_size(m, st);
     if (!bytes) {
         *size = n;
         return BRIDGE_OK;
@@ -1187,8 +1280,47 @@ static int serialize_state(void *slave, void *state, char *bytes, size_t *size) 
     for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) put_f64(at, st->held[i]);
     for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) put_f64(at, st->outputs[i]);
     for (size_t i = 0; i < m->nx; i++, at += 8) put_f64(at, st->x[i]);
+    for (size_t i = 0; i < m->n_vars; i++) {
+        if (!settable_text(&m->vars[i])) continue;
+        size_t length = strlen(st->texts[i]);
+        put32(at, (uint32_t)length), at += 4;
+        memcpy(at, st->texts[i], length), at += length;
+    }
+    put32(at, (uint32_t)(st->saved_size & 0xFFFFFFFFu)), put32(at + 4, (uint32_t)((uint64_t)st->saved_size >> 32));
+    at += 8;
+    if (st->saved_size) memcpy(at, st->saved, st->saved_size);
     *size = n;
     return BRIDGE_OK;
+}
+
+/* What a serialised state holds beyond its fixed part, read with bounds checks; NULL, else why not. */
+static const char *read_variable_part(const Model *m, const unsigned char *at, const unsigned char *end, Snapshot *st) {
+    for (size_t i = 0; i < m->n_vars; i++) {
+        if (!settable_text(&m->vars[i])) continue;
+        if (end - at < 4) return "truncated";
+        uint32_t length = le32(at);
+        at += 4;
+        if ((size_t)(end - at) < length) return "truncated";
+        char *text = malloc((size_t)length + 1);
+        if (!text) return "out of memory";
+        memcpy(text, at, length);
+        text[length] = '\0';
+        at += length;
+        st->texts[i] = text;
+        if (strlen(text) != length || !is_utf8(text)) return "a String parameter is not UTF-8";
+    }
+    if (end - at < 8) return "truncated";
+    uint64_t saved = le64(at);
+    at += 8;
+    if ((uint64_t)(end - at) != saved) return "truncated or damaged: its size does not add up";
+    if (saved && !m->kind->check_saved) return "it holds a simulator state this model has not";
+    if (!saved && m->kind->check_saved && st->initialised) return "it holds no simulator state";
+    if (saved) {
+        if (!(st->saved = malloc((size_t)saved))) return "out of memory";
+        memcpy(st->saved, at, (size_t)saved);
+        st->saved_size = (size_t)saved;
+    }
+    return NULL;
 }
 
 static int deserialize_state(void *slave, const char *bytes, size_t size, void **state) {
@@ -1196,7 +1328,7 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     const Model *m = &s->m;
     const unsigned char *b = (const unsigned char *)bytes;
     static const char *prefix = "fmi2DeSerializeFMUstate: the bytes are not a state of this FMU";
-    if (size < 32 || memcmp(b, STATE_MAGIC, 8) != 0)
+    if (size < STATE_FIXED || memcmp(b, STATE_MAGIC, 8) != 0)
         return refuse(s, BRIDGE_ERROR, "%s (not a native flexfmu state)", prefix);
     if (le32(b + 8) != STATE_VERSION)
         return refuse(s, BRIDGE_ERROR, "%s (state layout version %u, this FMU reads %u)", prefix, (unsigned)le32(b + 8),
@@ -1204,9 +1336,10 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     if (le32(b + 12) != m->n_vars || le32(b + 16) != m->layout.n_inputs || le32(b + 20) != m->layout.n_outputs
         || le32(b + 24) != m->nx)
         return refuse(s, BRIDGE_ERROR, "%s (its sizes are another model's)", prefix);
-    if (size != serialized_size(m))
-        return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected %zu)", prefix, size,
-                      serialized_size(m));
+    size_t fixed = STATE_FIXED + 8 * (m->n_vars + m->layout.n_inputs + m->layout.n_outputs + m->nx);
+    if (size < fixed)
+        return refuse(s, BRIDGE_ERROR, "%s (truncated or damaged: %zu bytes, expected at least %zu)", prefix, size,
+                      fixed);
     uint32_t flags = le32(b + 28);
     if (flags > 7) return refuse(s, BRIDGE_ERROR, "%s (bad flags)", prefix);
     Snapshot *st = malloc(sizeof *st);
@@ -1226,8 +1359,8 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     for (size_t i = 0; i < m->layout.n_inputs; i++, at += 8) st->held[i] = f64_of(at);
     for (size_t i = 0; i < m->layout.n_outputs; i++, at += 8) st->outputs[i] = f64_of(at);
     for (size_t i = 0; i < m->nx; i++, at += 8) st->x[i] = f64_of(at);
-    const char *bad = NULL;
-    if (!isfinite(st->time) || !isfinite(st->start_time) || !isfinite(st->clock)) bad = "time not finite";
+    const char *bad = read_variable_part(m, at, b + size, st);
+    if (!bad && (!isfinite(st->time) || !isfinite(st->start_time) || !isfinite(st->clock))) bad = "time not finite";
     for (size_t i = 0; !bad && i < m->n_vars; i++) {
         const Variable *v = &m->vars[i];
         if (!isfinite(st->values[i]))
@@ -1245,6 +1378,14 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     if (bad) {
         free_state(st);
         return refuse(s, BRIDGE_ERROR, "%s (%s)", prefix, bad);
+    }
+    if (st->saved) { /* the kind's own state: its structure, before any instance uses it */
+        NativeResult r = new_result(s);
+        int status = m->kind->check_saved(m->model, st->saved, st->saved_size, &r);
+        if (status != BRIDGE_OK) {
+            free_state(st);
+            return refuse(s, status, "%s (%s)", prefix, r.message);
+        }
     }
     *state = st;
     return BRIDGE_OK;

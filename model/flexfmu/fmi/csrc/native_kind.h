@@ -12,8 +12,9 @@
  *   load        parse the kind's entries of the model file ("<kind>.*") into a model object shared (read-only)
  *               by the instance's simulators
  *   state_size  the length of the state vector x (what an FMU state saves and restores)
- *   init        a simulator for the runtime parameters' values (already range-checked by the bridge) and its
- *               initial state x; kind-specific checks of the parameters here
+ *   init        a simulator for the runtime parameters' values (already range-checked by the bridge; a String
+ *               parameter's value in `texts`, the others' in `params`) and its initial state x; kind-specific
+ *               checks of the parameters here
  *   step        advance x over h with the inputs u held; x is written only on success
  *   outputs     the outputs (model-file order) of x with u held that the host reads: `which` marks them (1) on entry,
  *               and on return marks every output the call wrote (a kind may write more than asked when they come
@@ -24,20 +25,30 @@
  *   step_held   (optional) step, also given the inputs held before this step
  *   culprit     the input most likely behind a non-finite or diverged state or output (index), or -1 (the
  *               bridge then names "state")
+ *   start       (optional) what the process needs once before any instance (the Python kind: the interpreter)
+ *   save, restore, check_saved
+ *               (optional) a state the kind keeps beside x, as bytes of its own format and size (the Python kind:
+ *               the simulator's state): an FMU state holds them (and serialises them after the bridge's layout);
+ *               check_saved refuses, before any instance sees them, bytes that are not such a state
  *
  * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c; the reframe kind (free bodies:
- * ReframeBody, exported free bodies) native_reframe.c.  A new kind: its file
- * (native_<kind>.c) with one `const NativeKind native_<kind>_kind`, its line in KINDS, its writer in
- * flexfmu/fmi/native.py.
+ * ReframeBody, exported free bodies) native_reframe.c; both are listed in native_kinds.c, the kinds of a native
+ * FMU's library.  The Python kind (every Python-runtime FMU: a simulator written in Python, called through the
+ * embedded interpreter) is native_python.c, which lists itself as the one kind of the Python runtime's library.
+ * A new kind: its file (native_<kind>.c) with one `const NativeKind native_<kind>_kind`, its line in
+ * native_kinds.c, its writer in flexfmu/fmi/native.py.
  *
  * Thread-safety: a kind's functions are called for one instance at a time (the front locks the instance);
- * the model object is only read after load; simulators belong to one instance.  No globals.
+ * the model object is only read after load; simulators belong to one instance.  No globals (but the Python kind's
+ * interpreter, which is the process's).
  */
 #ifndef FLEXFMU_NATIVE_KIND_H
 #define FLEXFMU_NATIVE_KIND_H
 
 #include <stddef.h>
 #include <stdint.h>
+
+#include "flexfmu_bridge.h"
 
 /* ---- the model file, parsed (flexfmu_native.c) ------------------------------------------------- */
 
@@ -69,6 +80,7 @@ int native_i32(const NativeFile *file, const char *name, int ndim, const long *s
 /* ---- what a kind sees of the FMU -------------------------------------------------------------- */
 
 typedef struct {
+    const char *resources;                /* the FMU's resources folder (where the model file is) */
     size_t n_inputs, n_outputs, n_params; /* params: the runtime parameters (settable until initialisation) */
     const char *const *input_names;
     const char *const *output_names;
@@ -97,7 +109,8 @@ typedef struct {
     void *(*load)(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size);
     void (*free_model)(void *model);
     size_t (*state_size)(const void *model);
-    void *(*init)(const void *model, const double *params, double *x, NativeResult *result);
+    /* texts: per runtime parameter, its value if it is a String, else NULL */
+    void *(*init)(const void *model, const double *params, const char *const *texts, double *x, NativeResult *result);
     void (*free_sim)(void *sim);
     int (*step)(void *sim, double *x, const double *u, double t, double h, NativeResult *result);
     /* which (n_outputs): in, the outputs to compute; out, the outputs written into y (at least those asked) */
@@ -113,7 +126,19 @@ typedef struct {
                      NativeResult *result);
     /* optional: status-OK notes (native_note) at fmi2Terminate */
     void (*report)(void *sim, NativeResult *result);
+    /* optional: once per process before the first instance; 0, else -1 with why in `error` */
+    int (*start)(const BridgeSettings *settings, char *error, size_t error_size);
+    /* optional, all three or none: the kind's own state as bytes (malloc'd; the caller frees them), restored from
+       such bytes (the simulator is left as it was on a refusal), and refused (with one message) when the bytes are
+       not such a state */
+    int (*save)(void *sim, unsigned char **bytes, size_t *size, NativeResult *result);
+    int (*restore)(void *sim, const unsigned char *bytes, size_t size, NativeResult *result);
+    int (*check_saved)(const void *model, const unsigned char *bytes, size_t size, NativeResult *result);
 } NativeKind;
+
+/* The kinds of this library (native_kinds.c: a native FMU's; native_python.c: the Python runtime's). */
+extern const NativeKind *const native_kinds[];
+extern const size_t native_kind_count;
 
 /* Helpers the bridge offers the kinds: Python's repr of a float ("0.001", "1e-05", "nan", "100.0"), and a
    status with its message (printf format). */

@@ -183,7 +183,8 @@ static void free_sim(void *sim) {
     free(s);
 }
 
-static void *init(const void *model, const double *params, double *x, NativeResult *r) {
+static void *init(const void *model, const double *params, const char *const *texts, double *x, NativeResult *r) {
+    (void)texts; /* no String parameters */
     const LtiModel *m = model;
     const ffx_lti_model *k = &m->kernel;
     LtiSim *s = calloc(1, sizeof *s);

@@ -251,7 +251,8 @@ static int free_checks(ReframeSim *s, double shortest, NativeResult *r) {
     return 0;
 }
 
-static void *init(const void *model, const double *params, double *x, NativeResult *r) {
+static void *init(const void *model, const double *params, const char *const *texts, double *x, NativeResult *r) {
+    (void)texts; /* no String parameters */
     const ReframeModel *m = model;
     int nf = m->nf;
     ReframeSim *s = calloc(1, sizeof *s);
