@@ -147,7 +147,7 @@ def parameter_culprit(config, defaults, names) -> str:
             continue
         v, r = abs(float(value)), abs(float(ref))
         if v > 0 and r > 0:
-            scores[name] = abs(math.log10(v / r))
+            scores[name] = abs(math.log10(v) - math.log10(r))     # v / r may underflow to 0 or overflow
         elif v != r:
             scores[name] = 1.0
     return culprit(scores) or names[0]

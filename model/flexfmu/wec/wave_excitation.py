@@ -91,7 +91,7 @@ def _build(cfg: WaveExcitationConfig):
                                     cfg.depth, cfg.g)
             if cfg.hydrodynamics == "constant":
                 X = froude_krylov_transfer(box, waves) * waves.amplitude    # per component, (6, n)
-    except (OverflowError, ZeroDivisionError):                        # Python float arithmetic
+    except (OverflowError, ZeroDivisionError, ValueError):            # Python float arithmetic (math.sqrt, ...)
         check_finite_build(cfg, names, np.array([np.nan]))
     if cfg.hydrodynamics == "bem":
         # the excitation does not depend on the mass distribution: BoxParameters' defaults stand in for it

@@ -254,6 +254,24 @@ static long split(LtiSim *s, double t, double h, NativeResult *r) {
     return n;
 }
 
+/* Step maps that are not finite (as flexfmu.ffr.ffrbeam_diagnostics' _map_failure): the held base motion when
+   the maps of the same step without it are finite (the bridge then names the input), else the step itself, whose
+   transition matrix overflows: fmi2Discard, since a smaller communication step may succeed. */
+static int maps_failure(LtiSim *s, double h, double hi, NativeResult *r) {
+    const LtiModel *m = s->m;
+    int base = 0;
+    for (int k = 0; k < m->kernel.np; k++)
+        if (m->p_from_input[k] >= 0 && s->p[k] != 0.0) base = 1, s->p[k] = 0.0;
+    int still = !base || ffx_lti_update_step_maps(&s->maps, s->p, hi) != FFX_LTI_OK;
+    if (!still) return NATIVE_NOT_FINITE;
+    char shown[64];
+    native_repr(h, shown, sizeof shown);
+    return native_refuse(r, BRIDGE_DISCARD,
+                         "step_size: a communication step of %s s makes the step's transition matrix overflow "
+                         "(not finite); take a smaller communication step",
+                         shown);
+}
+
 static int step(void *sim, double *x, const double *in, double t, double h, NativeResult *r) {
     LtiSim *s = sim;
     long n = split(s, t, h, r);
@@ -262,11 +280,12 @@ static int step(void *sim, double *x, const double *in, double t, double h, Nati
     double hi = h / (double)n;
     s->last_h = hi;
     int status = ffx_lti_update_step_maps(&s->maps, s->p, hi);
+    if (status == FFX_LTI_NONFINITE || status == FFX_LTI_SINGULAR) return maps_failure(s, h, hi, r);
     if (status == FFX_LTI_OK) status = ffx_lti_steps(&s->maps, s->p, hi, n, x, s->u, x);
     if (status == FFX_LTI_OK) return BRIDGE_OK;
     if (status == FFX_LTI_BAD_ARGUMENT)
         return native_refuse(r, BRIDGE_ERROR, "step_size: %s", ffx_lti_status_string(status));
-    return NATIVE_NOT_FINITE; /* the maps or the state overflow: the bridge names the culprit */
+    return NATIVE_NOT_FINITE; /* the state overflows: the bridge names the culprit */
 }
 
 /* Only the outputs asked for: a host often reads a few of them (an accelerometer of a 25-output body). */
