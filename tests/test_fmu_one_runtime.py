@@ -12,24 +12,7 @@ import pytest
 from fmpy.fmi2 import fmi2String, fmi2ValueReference
 
 from fmu_helpers import Instance, restamp_crc, state_header
-
-H = 1e-3
-LOADS = {"F_y": 2.0, "base_w_z": 0.7}
-
-
-@pytest.fixture(scope="module")
-def ffrbeams(fmus, tmp_path_factory):
-    from flexfmu.fmi import native
-    out = tmp_path_factory.mktemp("one-runtime")
-    return {"python": fmus["FFRBeam"], "native": native.build_registry_fmu("FFRBeam", target=out / "FFRBeam.fmu")}
-
-
-def stepped(fmu, name: str, n: int = 3) -> Instance:
-    inst = Instance(fmu, name).initialize()
-    for k in range(n):
-        inst.set(**LOADS)
-        inst.fmu.doStep(currentCommunicationPoint=k * H, communicationStepSize=H)
-    return inst
+from test_fmu_states import H, ffrbeams, stepped  # noqa: F401  (ffrbeams: FFRBeam in both runtimes, a fixture)
 
 
 def no_internal_error(inst: Instance) -> None:
