@@ -127,3 +127,34 @@ def test_both_runtimes_refuse_a_state_with_nan_in_its_clock_alike(ffrbeams):
             assert any("time not finite" in m for _, _, m in inst.log), (runtime, inst.log)
         finally:
             inst.free()
+
+
+@pytest.mark.parametrize("name", ["FFRBeam", "ReframeBody", "WaveExcitation", "Hydrostatics", "Platform", "PTO"])
+def test_nan_anywhere_in_a_python_simulators_state_is_refused(fmus, name):
+    """Every number of the simulator's JSON state (the end of the runtime's layout), in turn NaN (JSON's extension) or
+    1e999 (which parses to infinity), the checksum stamped again: refused at fmi2DeSerializeFMUstate, naming the
+    number, never restored (Platform's state vector, the simulators' times)."""
+    import json
+    import re
+    inst = Instance(fmus[name], "s").initialize()
+    try:
+        inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+        blob = bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
+        at = state_header(blob)["payload_at"]
+        payload = blob[at:]
+        sim_at = payload.index(b'{"format"')
+        text = payload[sim_at:].decode()
+        json.loads(text)
+        numbers = list(re.finditer(r'(?<=[:\[,] )-?\d[\d.eE+-]*', text))
+        assert numbers
+        for match in numbers[:40]:
+            for bad in ("NaN", "1e999"):
+                changed = (text[:match.start()] + bad + text[match.end():]).encode()
+                new_payload = payload[:sim_at - 8] + len(changed).to_bytes(8, "little") + changed
+                size_at = len(b"FLEXFMU-STATE\n") + 12
+                body = blob[:size_at] + len(new_payload).to_bytes(8, "little") + blob[size_at + 8:at] + new_payload
+                inst.log.clear()
+                inst.expect_failure(inst.fmu.deSerializeFMUstate, restamp_crc(body))
+                assert any("not finite" in m for _, _, m in inst.log), (match.group(), bad, inst.log)
+    finally:
+        inst.free()
