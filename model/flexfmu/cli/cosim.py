@@ -6,6 +6,7 @@ import math
 import sys
 from pathlib import Path
 
+from flexfmu.cosim.checks import MAX_RESULT_BYTES
 from flexfmu.errors import FlexfmuError, ParameterError
 
 
@@ -26,6 +27,10 @@ def _cosim(args: argparse.Namespace) -> int:
         raise ParameterError("every", f"{args.every}", "integer >= 1")
     if not (math.isfinite(h) and h > 0):
         raise ParameterError("step", f"{h!r}", "finite step > 0 (s)")
+    if not (math.isfinite(args.max_memory) and args.max_memory > 0):
+        raise ParameterError("max-memory", f"{args.max_memory!r} GiB", "a finite limit > 0 GiB")
+    max_bytes = args.max_memory * 2**30
+    n = cosim.n_steps(args.t_end, system.start_time, h)
     if args.plot is not None:   # before the run: the chart needs a wave-energy converter's roster
         try:
             wec.roster(system)
@@ -33,6 +38,9 @@ def _cosim(args: argparse.Namespace) -> int:
             raise ParameterError("plot", f"the system is not a wave-energy converter: {exc}",
                                  "a system whose every simulator is a wave-energy converter component (docs/"
                                  "wave_converter.md), with a wave and a platform") from None
+    # before anything runs (the stability check included): the file against its FMUs or models, the results' memory
+    checked = cosim.check_system(system, "library" if args.master == "library" else "fmu")
+    cosim.check_result_memory(n, checked.n_outputs, h, max_bytes)
     if not args.no_stability_check:
         try:
             check = cosim.stability_check(system, h, scheme)
@@ -45,12 +53,13 @@ def _cosim(args: argparse.Namespace) -> int:
                       f"(spectral radius at {h:g} s: {check['spectral_radius']:.6f}); expect growing oscillation "
                       "or divergence - use a smaller --step (docs/wave_converter.md)", file=sys.stderr, flush=True)
     if args.master == "libcosim":
-        result = cosim.run_libcosim(system, args.t_end, h, progress=True)
+        result = cosim.run_libcosim(system, args.t_end, h, progress=True, max_result_bytes=max_bytes)
     elif args.master == "ecos":
-        result = cosim.run_ecos(system, args.t_end, h, progress=True)
+        result = cosim.run_ecos(system, args.t_end, h, progress=True, max_result_bytes=max_bytes)
     else:
         backend = "library" if args.master == "library" else "fmu"
-        result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True)
+        result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True,
+                           max_result_bytes=max_bytes)
     print(f"{system.path}: {len(system.simulators)} simulators, {len(system.connections)} connections; "
           f"master {result.master}, step {h:g} s, t = {result.t[0]:g} .. {result.t[-1]:g} s")
     if wec.is_wec(system):
@@ -91,6 +100,10 @@ def add_parser(sub) -> None:
     cosim_p.add_argument("--out", type=Path, default=None, metavar="CSV",
                          help="write every output of every simulator as CSV (columns instance.variable)")
     cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point")
+    cosim_p.add_argument("--max-memory", type=float, default=MAX_RESULT_BYTES / 2**30, metavar="GIB",
+                         help="refuse, before it starts, a run whose recorded results (every output at every "
+                              "communication point, 8 bytes each) would exceed GIB gibibytes "
+                              f"(default {MAX_RESULT_BYTES / 2**30:g})")
     cosim_p.add_argument("--master", choices=("fmpy", "libcosim", "ecos", "library"), default="fmpy",
                          help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; ecos: the ecos "
                               "engine (ecospy), given the system as SSP; library: the flexfmu models the FMUs wrap, "

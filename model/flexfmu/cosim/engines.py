@@ -1,0 +1,140 @@
+"""The other engines on the same system description, both Jacobi (their fixed-step algorithm): DNV's libcosim
+(libcosimpy; :func:`run_libcosim`) and the ecos engine (ecospy; :func:`run_ecos`).  Each gets the system written
+into a temporary folder, as an OSP file or an SSP archive; their results are CosimResults like our master's, and
+their run length is checked the same way first (flexfmu.cosim.checks).
+"""
+from __future__ import annotations
+
+import ctypes
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from flexfmu.core.progress import progress_bar
+from flexfmu.cosim.checks import MAX_RESULT_BYTES, check_result_memory, check_system, n_steps
+from flexfmu.cosim.results import CosimResult
+from flexfmu.cosim.slaves import model_description
+from flexfmu.cosim.ssp import PARAMETER_SET, write_ssp
+from flexfmu.cosim.system import System, write_osp
+from flexfmu.errors import ParameterError, require
+
+
+def _is_ssp(system: System) -> bool:
+    return system.path is not None and (Path(system.path).suffix.lower() in (".ssp", ".ssd")
+                                        or Path(system.path).is_dir())
+
+
+def run_libcosim(system: System, t_end: float, step: float | None = None, progress: bool = False,
+                 label: str = "flexfmu cosim (libcosim)", description: str | None = None,
+                 max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
+    """DNV's libcosim (libcosimpy) on the same description (its fixed-step algorithm: Jacobi).
+    The system (with any changed start values) is written into a temporary folder first, as an OSP
+    file with absolute FMU paths (``description="osp"``, libcosim's from_osp_config_file) or as an
+    SSP archive (``"ssp"``, from_ssp_file); default: the format the system was read from."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    h = float(system.base_step if step is None else step)
+    n = n_steps(t_end, system.start_time, h)
+    require(abs(round(h * 1e9) - h * 1e9) <= 1e-6 * h * 1e9, "step", f"{h!r} s is not a whole number of ns",
+            "a multiple of 1 ns (libcosim's time unit)")
+    check_result_memory(n, check_system(system, "fmu").n_outputs, h, max_result_bytes)
+    description = description or ("ssp" if _is_ssp(system) else "osp")
+    require(description in ("osp", "ssp"), "description", f"got {description!r}", "osp | ssp")
+    log_output_level(CosimLogLevel.ERROR)
+    with tempfile.TemporaryDirectory() as tmp:
+        if description == "ssp":
+            ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
+            execution = CosimExecution.from_ssp_file(str(ssp), int(round(h * 1e9)))
+        else:
+            osp = write_osp(system, Path(tmp) / "OspSystemStructure.xml", h)
+            execution = CosimExecution.from_osp_config_file(str(osp))
+    observer = CosimObserver.create_last_value()
+    execution.add_observer(observer)
+    index, outputs = {}, {}
+    for spec in system.simulators:
+        md = model_description(spec)
+        index[spec.name] = execution.slave_index_from_instance_name(spec.name)
+        outs = [(v.name, v.valueReference) for v in md.modelVariables if v.causality == "output"]
+        outputs[spec.name] = outs
+    order = [s.name for s in system.simulators]
+    rows = []
+
+    def sample():
+        rows.append(np.concatenate([observer.last_real_values(index[nm], [vr for _, vr in outputs[nm]])
+                                    for nm in order]))
+
+    with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
+        ok = execution.step(1)        # libcosim initialises on the first step
+        require(ok, "libcosim", "the first step failed", "see the FMUs' log")
+        sample()                      # libcosim's observer has no values before the first step: t0 is not recorded
+        bar.update_to(1, system.start_time + h)
+        for k in range(1, n):
+            ok = execution.step(1)
+            require(ok, "libcosim", f"step {k + 1} (t = {system.start_time + k * h:.9g} s) failed",
+                    "a step inside the coupling-stability limit")
+            sample()
+            bar.update_to(k + 1, system.start_time + (k + 1) * h)
+    del execution
+    data = np.array(rows)
+    columns = {}
+    j = 0
+    for nm in order:
+        for var, _ in outputs[nm]:
+            columns[f"{nm}.{var}"] = data[:, j]
+            j += 1
+    t = system.start_time + h * np.arange(1, n + 1)
+    return CosimResult(t, columns, h, "jacobi", "libcosim (jacobi)")
+
+
+def _load_ecospy():
+    """ecospy's EcosSimulation; its library links libtbb.so.12, which the PyPI package tbb puts in the
+    environment's lib/ (not on the loader's path): loaded globally first when it is there."""
+    lib = Path(sys.prefix) / "lib" / "libtbb.so.12"
+    if lib.exists():
+        ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+    try:
+        from ecospy import EcosSimulation
+    except (ImportError, OSError) as exc:
+        raise ParameterError("master", f"ecos (ecospy) cannot be loaded: {exc}",
+                             "fmpy | libcosim | library, or pip install ecospy tbb") from None
+    return EcosSimulation
+
+
+def run_ecos(system: System, t_end: float, step: float | None = None, progress: bool = False,
+             label: str = "flexfmu cosim (ecos)", max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
+    """The ecos engine (ecospy's C library, the FMUs in this process) on the system written as an SSP
+    archive into a temporary folder (its fixed-step algorithm: Jacobi; the outputs after
+    initialisation are passed to the inputs before the first step; time accumulated, t += h).
+    Start values are the SSP's parameter set "start"."""
+    h = float(system.base_step if step is None else step)
+    n = n_steps(t_end, system.start_time, h)
+    require(system.start_time == 0.0, "StartTime", f"got {system.start_time!r}", "0 for ecos")
+    check_result_memory(n, check_system(system, "fmu").n_outputs, h, max_result_bytes)
+    EcosSimulation = _load_ecospy()
+    order = [s.name for s in system.simulators]
+    outputs = {s.name: [v.name for v in model_description(s).modelVariables
+                        if v.causality == "output"] for s in system.simulators}
+    ids = [f"{nm}::{var}" for nm in order for var in outputs[nm]]
+    rows = np.empty((n + 1, len(ids)))
+    with tempfile.TemporaryDirectory() as tmp:
+        ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
+        sim = EcosSimulation(ssp_path=str(ssp), step_size=h)
+        try:
+            sim.init(parameter_set=PARAMETER_SET)
+            get = sim.get_real
+            rows[0] = [get(i) for i in ids]
+            with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
+                for k in range(n):
+                    sim.step()
+                    rows[k + 1] = [get(i) for i in ids]
+                    bar.update_to(k + 1, system.start_time + (k + 1) * h)
+            sim.terminate()
+        finally:
+            sim.free()
+    require(bool(np.all(np.isfinite(rows))), "ecos", "non-finite outputs", "a step inside the coupling-stability limit")
+    columns = dict(zip([f"{nm}.{var}" for nm in order for var in outputs[nm]], rows.T))
+    return CosimResult(system.start_time + h * np.arange(n + 1), columns, h, "jacobi", "ecos (jacobi)")
