@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from flexfmu.errors import ParameterError
+from flexfmu.errors import CosimulationError, ParameterError
 
 
 def _floats(text: str, name: str) -> list:
@@ -15,22 +15,30 @@ def _floats(text: str, name: str) -> list:
 
 
 def _wec_power_matrix(args: argparse.Namespace) -> int:
-    """flexfmu wec power-matrix: flexfmu.wec.system.power_matrix, its CSV and heat map."""
+    """flexfmu wec power-matrix: flexfmu.wec.system.power_matrix, its CSV and heat map.  Everything every run would
+    refuse is checked before the first (exit 2); runs that fail make it exit 2 after writing what was computed,
+    saying how many failed, why and the first one's message; a matrix without a computed cell is not written."""
     import numpy as np
 
+    from flexfmu.cosim.masters import load_system
     from flexfmu.wec import system as wec
+    from flexfmu.wec.sweeps import check_runs, failure_summary
 
     if args.seeds < 1:
         raise ParameterError("seeds", f"{args.seeds}", "integer >= 1")
     if args.workers < 1:
         raise ParameterError("workers", f"{args.workers}", "integer >= 1")
+    max_steepness = wec.MAX_STEEPNESS if args.max_steepness is None else args.max_steepness
+    check_runs(load_system(args.system_file, fmu_dir=args.fmu_dir), args.t_end, args.step, args.backend)
     scheduler = None if args.serial else (args.scheduler or "local")
     matrix = wec.power_matrix(args.system_file, _floats(args.hs, "hs"), _floats(args.tp, "tp"),
                               seeds=range(1, args.seeds + 1), t_end=args.t_end, step=args.step,
                               boundary=args.boundary, backend=args.backend, fmu_dir=args.fmu_dir,
-                              scheduler=scheduler, n_workers=args.workers,
-                              max_steepness=wec.MAX_STEEPNESS if args.max_steepness is None else args.max_steepness,
+                              scheduler=scheduler, n_workers=args.workers, max_steepness=max_steepness,
                               progress=True)
+    if not matrix.rows:   # nothing was run
+        raise ParameterError("max-steepness", f"every cell of --hs x --tp is steeper than {max_steepness:g} "
+                             "(2 pi Hs / (g Tp^2))", "a grid with a cell within --max-steepness (default 1/15)")
     n_runs = len(matrix.rows)
     print(f"{n_runs} co-simulations ({np.isfinite(matrix.power).sum()} of {matrix.power.size} cells) in "
           f"{matrix.wall_s:.0f} s ({'serial' if scheduler is None else 'Dask ' + scheduler})")
@@ -38,10 +46,14 @@ def _wec_power_matrix(args: argparse.Namespace) -> int:
         if row.get("error"):
             print(f"  failed: Hs {row['wave_height']:g} m, Tp {row['wave_period']:g} s, seed {row['seed']}: "
                   f"{row['error']}")
-    print(f"wrote {matrix.write_csv(args.out)}")
-    if matrix.rows:
+    failed = failure_summary(matrix.rows)
+    if np.isfinite(matrix.power).any():
+        print(f"wrote {matrix.write_csv(args.out)}")
         print(f"wrote {wec.write_table(matrix.rows, args.out.with_name(args.out.stem + '_runs.csv'))}")
-    print(f"wrote {matrix.plot(args.plot)}")
+        print(f"wrote {matrix.plot(args.plot)}")
+    if failed is not None:
+        raise CosimulationError(f"power-matrix: {failed}" + ("" if np.isfinite(matrix.power).any()
+                                                             else "; nothing written"))
     return 0
 
 

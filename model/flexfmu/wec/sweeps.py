@@ -1,6 +1,7 @@
 """The machinery of the wave-energy converter's sweeps that does not depend on the system (flexfmu.wec.system
-runs the cases): tasks run serially or on Dask, their rows written as a table, and the power matrix's table and
-chart in the IEC TS 62600-100 layout.
+runs the cases): the checks before the first task (:func:`check_runs`), tasks run serially or on Dask, their rows
+written as a table, what failed (:func:`failure_summary`), and the power matrix's table and chart in the
+IEC TS 62600-100 layout (never written empty).
 """
 from __future__ import annotations
 
@@ -10,7 +11,35 @@ from pathlib import Path
 import numpy as np
 
 from flexfmu.core.progress import progress_bar
-from flexfmu.errors import ParameterError
+from flexfmu.cosim.checks import MAX_RESULT_BYTES, check_result_memory, check_system, n_steps
+from flexfmu.errors import ParameterError, require
+
+
+def check_runs(system, t_end: float, step: float | None, backend: str,
+               max_result_bytes: float = MAX_RESULT_BYTES) -> None:
+    """What every co-simulation of a sweep would refuse, checked once before the first: the run's length (t_end,
+    step: finite, > 0, dividing), the system against its FMUs or models (flexfmu.cosim.checks.check_system) and
+    the memory of one run's results.  A sweep's runs differ in start values only, so each would fail alike."""
+    h = system.base_step if step is None else step
+    n = n_steps(t_end, system.start_time, h)
+    check_result_memory(n, check_system(system, backend).n_outputs, h, max_result_bytes)
+
+
+def failure_summary(rows: list[dict]) -> str | None:
+    """None when no row has an error; else one line: how many failed, how many for each cause (the parameter an
+    error names, before its first colon) and the first failure's case and message."""
+    failed = [r for r in rows if r.get("error")]
+    if not failed:
+        return None
+    causes: dict = {}
+    for r in failed:
+        cause = str(r["error"]).split(":", 1)[0]
+        causes[cause] = causes.get(cause, 0) + 1
+    first = failed[0]
+    return (f"{len(failed)} of {len(rows)} co-simulations failed (by cause: "
+            + ", ".join(f"{c}: {k}" for c, k in causes.items())
+            + f"); the first, Hs {first['wave_height']:g} m, Tp {first['wave_period']:g} s, seed {first['seed']}: "
+            + " ".join(str(first["error"]).split()))
 
 
 def run_tasks(task, arguments, scheduler: str | None = None, n_workers: int = 2, progress: bool = False) -> list:
@@ -82,9 +111,15 @@ class PowerMatrix:
     seeds: tuple
     wall_s: float = 0.0
 
+    def _require_a_cell(self) -> None:
+        require(bool(np.isfinite(self.power).any()), "power matrix", "no cell computed (every cell too steep or "
+                "every run failed)", "a matrix with at least one computed cell")
+
     def write_csv(self, path) -> Path:
-        """IEC TS 62600-100 layout: rows Hs (m), columns Tp (s), mean power in W, empty where not computed."""
+        """IEC TS 62600-100 layout: rows Hs (m), columns Tp (s), mean power in W, empty where not computed.
+        A matrix without a computed cell is refused: an empty table would pass for a result."""
         import csv
+        self._require_a_cell()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         with path.open("w", newline="") as f:
@@ -96,7 +131,8 @@ class PowerMatrix:
 
     def plot(self, path) -> Path:
         """The matrix as a heat map in the table's layout (Hs down, Tp across; log colour scale), the
-        value of each computed cell written in it, empty cells blank."""
+        value of each computed cell written in it, empty cells blank.  A matrix without a computed cell is refused."""
+        self._require_a_cell()
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
