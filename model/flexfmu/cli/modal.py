@@ -22,8 +22,8 @@ def _is_scene(text: str) -> bool:
         return False
     try:
         return "points" in json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, OSError, UnicodeDecodeError, TypeError):
-        return True                     # load_scene reports what is wrong with it
+    except (ValueError, OSError, UnicodeDecodeError, TypeError, RecursionError):
+        return True                     # load_scene reports what is wrong with it (nesting too deep included)
 
 
 def _modal_structure(args: argparse.Namespace) -> int:

@@ -3,19 +3,29 @@ and `flexfmu export` take the same ones."""
 from __future__ import annotations
 
 import argparse
+import sys
+import warnings
 from pathlib import Path
 
 
 def load_user_model(args: argparse.Namespace):
-    """The Structure of MODEL with --material, --length-unit and --nodes (flexfmu.importers)."""
+    """The Structure of MODEL with --material, --length-unit and --nodes (flexfmu.importers); the importers'
+    warnings (a model size implausible in its length unit) printed as one line each, ``flexfmu: warning: ...``."""
     from flexfmu.importers import load_structure
-
-    from flexfmu.importers.units import material_from_text
+    from flexfmu.importers.units import ModelSizeWarning, material_from_text
 
     options = {"material": material_from_text(args.material), "length_unit": args.length_unit,
                "coordinates": args.nodes}
     source = args.model if hasattr(args, "model") else args.scene
-    return load_structure(source, **{k: v for k, v in options.items() if v is not None})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ModelSizeWarning)
+        structure = load_structure(source, **{k: v for k, v in options.items() if v is not None})
+    for warning in caught:
+        if issubclass(warning.category, ModelSizeWarning):
+            print(f"flexfmu: warning: {warning.message}", file=sys.stderr)
+        else:                           # not ours: as Python would have shown it
+            warnings.warn_explicit(warning.message, warning.category, warning.filename, warning.lineno)
+    return structure
 
 
 def add_model_options(parser: argparse.ArgumentParser) -> None:

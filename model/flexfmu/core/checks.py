@@ -29,6 +29,13 @@ MAX_INTERNAL_STEPS_RANGE = (1, 100_000_000)
 #: would be within the cap; otherwise the input or parameter that makes it so is refused (fmi2Error).  The C step
 #: policy has it as FFX_MIN_COMMUNICATION_STEP (flexfmu/native/csrc/step_policy.h; tests/test_step_policy.py).
 MIN_COMMUNICATION_STEP = 1e-5
+#: The material constants a model may have, SI: Young's modulus E (Pa) and density rho (kg/m^3).  Real solids
+#: span E ~ 1e3 Pa (gels) .. 1.2e12 Pa (diamond) and rho ~ 0.2 (aerogels) .. 2.3e4 kg/m^3 (osmium); the ranges
+#: leave decades of room for artificial materials (a quasi-rigid test rod: 1e6 x steel's E) and keep M, K and the
+#: frequencies sqrt(E / rho) / size far inside the floating-point range (rho = 1e-300 made the mass matrix
+#: underflow: NaN modes; a mm-t-s Nastran deck read as SI has rho = 7.85e-9).
+YOUNG_MODULUS_RANGE = (1.0, 1e20)
+DENSITY_RANGE = (1e-6, 1e6)
 
 
 def is_real(value) -> bool:

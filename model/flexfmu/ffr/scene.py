@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from flexfmu.core.checks import path_exists_as, shown
+from flexfmu.core.checks import DENSITY_RANGE, YOUNG_MODULUS_RANGE, path_exists_as, shown
 from flexfmu.errors import ParameterError, require
 from flexfmu.ffr.elements import DEFAULT_ELEMENT, get_element
 
@@ -27,6 +27,14 @@ MAX_SCENE_BYTES = 16 * 2**20
 # Consecutive segments folding back onto each other (angle between directions
 # close to 180 deg) have no meaningful bent-rod interpretation.
 _FOLD_BACK_COS = -1.0 + 1e-9
+#: A section a beam model resolves: its largest radius of gyration sqrt(max(Iy, Iz) / A) at most this fraction of the
+#: rod's length (a beam, not a plate: a 1 m wide section on a 0.45 m rod is not one) ...
+SECTION_SIZE_MAX = 0.1
+#: ... and the rod at most this many of its smallest radii sqrt(min(Iy, Iz, J) / A) long: the bending stiffness
+#: of a thinner section drowns in the rounding of the axial one (measured on a free 1 m rod, 10 mm wide: 1e-7 m
+#: thick, L / r = 3.5e7, f_1 right to 4e-7; 1e-8 m thick, 3.5e8, 175 % off, silently; a 1e-9 m x 1 m section on
+#: the 0.45 m double L gave frequencies of zero); 1e6 leaves a factor 35.
+SLENDERNESS_MAX = 1e6
 _TOP_LEVEL_FIELDS = {"schema_version", "name", "description", "points", "section", "material",
                      "clamps", "point_masses", "element"}
 
@@ -136,6 +144,14 @@ def _positive(d: dict, key: str, prefix: str) -> float:
     return float(d[key])
 
 
+def _in_range(d: dict, key: str, prefix: str, bounds: tuple, unit: str) -> float:
+    lo, hi = bounds
+    value = _positive(d, key, prefix)
+    require(lo <= value <= hi, f"{prefix}.{key}", f"{value:g} {unit} is outside the range models resolve",
+            f"{lo:g} .. {hi:g} {unit}")
+    return value
+
+
 def _check_fields(d: dict, allowed: set[str], prefix: str) -> None:
     unknown = sorted(set(d) - allowed)
     require(not unknown, f"{prefix}{unknown[0][:60] if unknown else ''}",
@@ -189,8 +205,8 @@ def _section_constants(d: dict) -> Section:
 def material_from_dict(d) -> Material:
     require(isinstance(d, dict), "material", "must be an object", "{E, nu, rho}")
     _check_fields(d, {"E", "nu", "rho"}, "material.")
-    E = _positive(d, "E", "material")
-    rho = _positive(d, "rho", "material")
+    E = _in_range(d, "E", "material", YOUNG_MODULUS_RANGE, "Pa")
+    rho = _in_range(d, "rho", "material", DENSITY_RANGE, "kg/m^3")
     require("nu" in d, "material.nu", "missing", "-1 < nu < 0.5")
     nu = d["nu"]
     require(_is_number(nu) and -1.0 < nu < 0.5, "material.nu", f"got {shown(nu)}", "-1 < nu < 0.5")
@@ -240,6 +256,14 @@ def scene_from_dict(d, source: str = "") -> Scene:
     material = material_from_dict(d.get("material"))
     total = float(lengths.sum())
     require(math.isfinite(total), "points", "the rod's total length overflows", "coordinates below 1e300 m")
+    r_min = math.sqrt(min(section.Iy, section.Iz, section.J) / section.A)
+    r_max = math.sqrt(max(section.Iy, section.Iz) / section.A)
+    require(r_max <= SECTION_SIZE_MAX * total and total <= SLENDERNESS_MAX * r_min, "section",
+            f"radii of gyration sqrt(I / A) from {r_min:.3g} to {r_max:.3g} m on a {total:.4g} m rod: "
+            + ("too wide for a beam" if r_max > SECTION_SIZE_MAX * total else
+               f"{total / r_min:.3g} of them long, too thin to resolve"),
+            f"sqrt(max(Iy, Iz) / A) <= {SECTION_SIZE_MAX:g} x rod length = {SECTION_SIZE_MAX * total:.3g} m and "
+            f"sqrt(min(Iy, Iz, J) / A) >= rod length / {SLENDERNESS_MAX:.0e} = {total / SLENDERNESS_MAX:.3g} m")
     tol = 1e-9 * total
 
     clamps_raw = d.get("clamps", [])

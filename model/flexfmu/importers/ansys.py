@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from flexfmu.core.structure import Provenance, Structure
 from flexfmu.errors import ModelFileError, ParameterError
 from flexfmu.importers.build import versions
-from flexfmu.importers.units import UNIT_DESCRIPTIONS, UNIT_SYSTEMS, check_length_unit
+from flexfmu.importers.units import UNIT_DESCRIPTIONS, UNIT_SYSTEMS, check_length_unit, check_model_size
 
 #: MAPDL DOF label numbers -> names; Structure takes the translations, or translations and rotations.
 DOF_LABELS = {1: "UX", 2: "UY", 3: "UZ", 4: "ROTX", 5: "ROTY", 6: "ROTZ"}
@@ -161,6 +161,11 @@ def load_ansys_full(path, *, coordinates=None, length_unit: str | None = None, n
     if constrained.size:
         notes.append(f"{constrained.size} constrained DOFs: MAPDL wrote no stiffness for them; their rows of M and "
                      "K are zero, so the model is valid clamped (constrained DOFs removed) only")
+    # the unit is assumed (SI) when neither the file (/UNITS) nor the caller names it
+    assumed = length_unit is None and str(full._standard_header.get("units", "User Defined")) not in HEADER_UNITS
+    size_note = check_model_size(path, nodes * length, system, assumed)
+    if size_note:
+        notes.append(f"warning: {size_note}")
     provenance = Provenance(source=str(path), format="ansys-full", reader=versions("ansys-mapdl-reader"),
                             units=f"{units_text}: {UNIT_DESCRIPTIONS[system]}, converted to SI", notes=tuple(notes))
     meta = {"source": str(path), "node_ids": node_numbers, "clamped_only": bool(constrained.size),

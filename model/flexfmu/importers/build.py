@@ -13,8 +13,8 @@ import numpy as np
 from flexfmu.core.structure import Provenance, Structure
 from flexfmu.errors import ModelFileError
 from flexfmu.importers.assembly import CellBlock, assemble
-from flexfmu.importers.elements import SUPPORTED
-from flexfmu.importers.units import UNIT_SYSTEMS
+from flexfmu.importers.elements import CELL_TYPES, FLAT_CELL_RTOL, SUPPORTED, corner_volumes
+from flexfmu.importers.units import UNIT_SYSTEMS, check_model_size
 
 
 @dataclass
@@ -36,9 +36,11 @@ def _point_name(read: ReadMesh, index: int) -> str:
 
 
 def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, file_format: str, reader: str,
-                        units_text: str | None = None, integration: str = "full") -> Structure:
+                        units_text: str | None = None, integration: str = "full", unit_assumed: bool = False
+                        ) -> Structure:
     """Assemble ``read`` into a Structure (see the module docstring); ``length_unit`` is a key of
-    :data:`flexfmu.importers.units.UNIT_SYSTEMS`; materials in ``read.blocks`` are SI already."""
+    :data:`flexfmu.importers.units.UNIT_SYSTEMS` (``unit_assumed``: none was given; the model's size is checked
+    for plausibility, flexfmu.importers.units.PLAUSIBLE_SIZE); materials in ``read.blocks`` are SI already."""
     if not read.blocks or all(b.cells.shape[0] == 0 for b in read.blocks):
         raise ModelFileError(path, "no volume cells", f"a mesh with volume cells: {SUPPORTED}")
     n_points = read.points.shape[0]
@@ -61,6 +63,10 @@ def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, fi
     if not np.all(np.isfinite(points)):
         bad = int(kept[np.argwhere(~np.isfinite(points))[0, 0]])
         raise ModelFileError(path, "non-finite coordinate", "finite coordinates", entity=_point_name(read, bad))
+    size_note = check_model_size(path, points, length_unit, unit_assumed)
+    if size_note:
+        notes.append(f"warning: {size_note}")
+    _refuse_degenerate_cells(path, read)
     blocks = [CellBlock(b.cell_type, new_index[b.cells], b.material, b.ids) for b in read.blocks if b.cells.size]
     M, K = assemble(path, points, blocks, integration)
 
@@ -91,6 +97,33 @@ def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, fi
                             notes=tuple(notes))
     return Structure(nodes=points, dofs_per_node=3, M=M, K=K, name=name, meta=meta, constrained_dofs=constrained,
                      node_sets=node_sets, provenance=provenance)
+
+
+def _refuse_degenerate_cells(path, read: ReadMesh) -> None:
+    """ModelFileError naming the first cell (its number and nodes) that is flat, has coinciding nodes or is folded
+    over itself (corners of both orientations): flexfmu.importers.elements.FLAT_CELL_RTOL.  A cell of the mirrored
+    orientation throughout is accepted (its volume is the same)."""
+    points = np.asarray(read.points, dtype=float)
+    for block in read.blocks:
+        ct = CELL_TYPES.get(block.cell_type)
+        if ct is None or not block.cells.size:
+            continue
+        q = corner_volumes(ct, points[block.cells[:, :ct.n_vertices]])
+        oriented = np.where(np.sum(q, axis=1, keepdims=True) < 0, -q, q)       # mirrored cells: their own sign
+        bad = ~(np.min(oriented, axis=1) >= FLAT_CELL_RTOL)                   # NaN (coinciding nodes) included
+        if np.any(bad):
+            row = int(np.flatnonzero(bad)[0])
+            worst = float(np.min(oriented[row]))
+            what = ("folded over itself (corners of opposite orientation: a node order other than meshio's, or a "
+                    "cell turned inside out)" if worst < 0 else
+                    "flat: its corners span no volume (coinciding or coplanar nodes)" if not worst > 1e-15 else
+                    f"nearly flat: the volume at its worst corner is {worst:.2g} of its longest edge cubed")
+            nodes = ", ".join(_point_name(read, int(i)).split()[-1] for i in block.cells[row])
+            kind = "node" if read.point_ids is not None else "point"
+            raise ModelFileError(path, f"is {what}; its {kind}s {nodes}"
+                                 + (f" ({bad.sum()} such cells in all)" if bad.sum() > 1 else ""),
+                                 f"cells whose every corner spans at least {FLAT_CELL_RTOL:g} x (longest edge)^3, "
+                                 "all corners of one orientation", entity=f"{block.cell_type} {block.cell_id(row)}")
 
 
 def versions(*packages: str) -> str:

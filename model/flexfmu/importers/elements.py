@@ -29,6 +29,15 @@ import numpy as np
 HEX_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7))
 HEX_FACES = ((0, 3, 7, 4), (1, 2, 6, 5), (0, 1, 5, 4), (3, 2, 6, 7), (0, 1, 2, 3), (4, 5, 6, 7))
 TET_EDGES = ((0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3))
+#: each corner and its three neighbours along the edges, right-handed in a cell of positive volume (VTK order)
+HEX_CORNERS = ((1, 3, 4), (2, 0, 5), (3, 1, 6), (0, 2, 7), (7, 5, 0), (4, 6, 1), (5, 7, 2), (6, 4, 3))
+TET_CORNERS = ((1, 2, 3),)
+#: a cell is degenerate when the volume spanned by a corner's three edges is below this fraction of its longest
+#: edge cubed (a unit cube: 1; a regular tetrahedron: 0.71), or when its corners differ in orientation (folded).
+#: The determinant's rounding is ~1e-15 of the edge cubed, so 1e-8 is far above noise; a cell below it held a
+#: node by almost no stiffness in one direction (a sliver 1e-9 thick: "more than six zero-energy modes") or, at
+#: zero volume, made scikit-fem divide by zero (NaN in K, pages of numpy warnings).
+FLAT_CELL_RTOL = 1e-8
 
 
 @dataclass(frozen=True)
@@ -92,6 +101,22 @@ def volume_cell_types() -> set:
     """All 3-D cell types meshio knows (supported or not)."""
     from meshio._mesh import topological_dimension
     return {name for name, dim in topological_dimension.items() if dim == 3}
+
+
+def corner_volumes(cell_type: CellType, corner_xyz: np.ndarray) -> np.ndarray:
+    """(n_cells, n_corners): det[e1, e2, e3] / (longest edge)^3 at each corner of each cell, e_k its edges to the
+    corner's neighbours (HEX_CORNERS, TET_CORNERS), from the corner coordinates (n_cells, n_vertices, 3): a
+    straight-sided cell's local volume measure, positive for meshio's (VTK's) orientation, 0 for a flat cell."""
+    xyz = np.asarray(corner_xyz, dtype=float)
+    corners = HEX_CORNERS if cell_type.n_vertices == 8 else TET_CORNERS
+    edges = HEX_EDGES if cell_type.n_vertices == 8 else TET_EDGES
+    longest = np.max(np.stack([np.linalg.norm(xyz[:, a] - xyz[:, b], axis=-1) for a, b in edges], axis=1), axis=1)
+    out = np.empty((xyz.shape[0], len(corners)))
+    with np.errstate(all="ignore"):                 # 0 / 0 of a cell whose nodes coincide: NaN, refused
+        for k, (a, b, c) in enumerate(corners):
+            e = np.stack([xyz[:, a] - xyz[:, k], xyz[:, b] - xyz[:, k], xyz[:, c] - xyz[:, k]], axis=1)
+            out[:, k] = np.linalg.det(e) / longest**3
+    return out
 
 
 def entity_centroids(cell_type: CellType, corner_xyz: np.ndarray) -> np.ndarray:

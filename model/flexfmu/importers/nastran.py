@@ -101,7 +101,9 @@ def _material(path: Path, model, element, unit: str, cache: dict) -> Material:
         if missing:
             raise ModelFileError(path, f"{missing[0]} is missing or zero", "MAT1 with E > 0, NU, RHO > 0",
                                  entity=f"MAT1 {prop.mid}")
-        cache[pid] = check_material(values, f"MAT1 {prop.mid}", path).in_si(unit)
+        cache[pid] = check_material(values, f"MAT1 {prop.mid}", path, unit_system=unit,
+                                    unit_hint=f"the deck read in {UNIT_DESCRIPTIONS[unit]}: is it in mm-t-s or "
+                                    "in-lbf-s? give its length unit" if unit == "m" else "")
     return cache[pid]
 
 
@@ -187,4 +189,5 @@ def load_nastran(path, *, length_unit: str | None = None, name: str | None = Non
     read = ReadMesh(points=points, blocks=blocks, node_sets=node_sets, fixed=fixed_idx, point_ids=grid_ids, notes=notes)
     units = (f"deck in {UNIT_DESCRIPTIONS[unit]}" + ("" if unit == "m" else ", converted to SI"))
     return structure_from_mesh(path, read, length_unit=unit, name=name or path.stem, file_format="nastran",
+                               unit_assumed=length_unit is None,
                                reader=versions("pyNastran", "scikit-fem"), units_text=units, integration=integration)

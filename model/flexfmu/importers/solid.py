@@ -11,7 +11,9 @@ named by ``field_data``).  The material is given in SI, as an argument or in a m
      "name": "bracket",                                       optional (default: the JSON's stem)
      "integration": "full"}                                   optional: "full" or "reduced" (elements.py)
 
-A mesh loaded without a material uses ``<mesh stem>.json`` beside it when that JSON names the mesh.
+A mesh with a model JSON beside it that names it (``<mesh stem>.json``) is read as that JSON says: its length
+unit, integration and name always hold (one given again as an argument is refused, never silently replaced), its
+material unless a material is given (then the given one is used, and the provenance says so).
 """
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ from flexfmu.importers.elements import ALIASES, CELL_TYPES, SUPPORTED, check_int
 from flexfmu.importers.units import UNITS_ALLOWED, check_length_unit, check_material
 
 JSON_KEYS = ("mesh", "material", "length_unit", "name", "integration")
+JSON_DEPTH = 2                              # the object, and the material in it
 JSON_ALLOWED = ('{"mesh": path, "material": {"E", "nu", "rho"}, "length_unit": ' + f'"{UNITS_ALLOWED}", "name": text, '
                 '"integration": "full | reduced"}')
 
@@ -108,8 +111,8 @@ def _sibling_json(path: Path):
     if candidate.is_file():
         try:
             spec = json.loads(candidate.read_text())
-        except (OSError, ValueError, UnicodeDecodeError):
-            return None
+        except (OSError, ValueError, UnicodeDecodeError, RecursionError):
+            return None                       # not a model JSON of this mesh (nested beyond any model JSON)
         if isinstance(spec, dict) and isinstance(spec.get("mesh"), str) and \
                 (candidate.parent / spec["mesh"]).resolve() == path.resolve():
             return candidate
@@ -120,13 +123,22 @@ def load_mesh(path, *, material=None, length_unit: str | None = None, name: str 
               integration: str | None = None, provenance_notes=()) -> "Structure":
     """The Structure of a mesh file (see the module docstring); ``material`` a mapping with E, nu, rho (SI)."""
     path = Path(path)
+    sibling = _sibling_json(path)
+    if sibling is not None:
+        # the model JSON naming this mesh holds its length unit: never dropped, even when the material is given
+        return load_model_json(sibling, material=material, length_unit=length_unit, integration=integration,
+                               material_replaces=material is not None)
     if material is None:
-        sibling = _sibling_json(path)
-        if sibling is not None:
-            return load_model_json(sibling, length_unit=length_unit, integration=integration)
         raise ModelFileError(path, "no material: give material={'E': ..., 'nu': ..., 'rho': ...} or a model "
                              f"JSON naming this mesh ({path.with_suffix('.json').name})", JSON_ALLOWED,
                              entity="material")
+    return read_mesh_file(path, material=material, length_unit=length_unit, name=name, integration=integration,
+                          provenance_notes=provenance_notes)
+
+
+def read_mesh_file(path: Path, *, material, length_unit: str | None, name: str | None, integration: str | None,
+                   provenance_notes=()) -> "Structure":
+    """load_mesh once the material is known (no model JSON looked up)."""
     mat = check_material(material)
     unit = "m" if length_unit is None else check_length_unit(length_unit)
     integration = check_integration("full" if integration is None else integration)
@@ -138,12 +150,17 @@ def load_mesh(path, *, material=None, length_unit: str | None = None, name: str 
         # 2-D meshes carry no z: they have no volume cells either
         raise ModelFileError(path, f"points have {read.points.shape[-1]} coordinates", "3-D points (x, y, z)")
     return structure_from_mesh(path, read, length_unit=unit, name=name or path.stem, file_format=fmt,
-                               reader=versions("meshio", "scikit-fem"), integration=integration)
+                               reader=versions("meshio", "scikit-fem"), integration=integration,
+                               unit_assumed=length_unit is None)
 
 
-def load_model_json(path, *, material=None, length_unit: str | None = None, integration: str | None = None
-                    ) -> "Structure":
-    """The Structure described by a model JSON (mesh, material, length unit; see the module docstring)."""
+def load_model_json(path, *, material=None, length_unit: str | None = None, integration: str | None = None,
+                    material_replaces: bool = False) -> "Structure":
+    """The Structure described by a model JSON (mesh, material, length unit; see the module docstring).
+
+    An argument the JSON also holds is refused ("given both"), except the material with ``material_replaces``
+    (a mesh loaded with its own material while a model JSON beside it names it: the JSON's length unit,
+    integration and name still hold, and the provenance says whose material was used)."""
     path = Path(path)
     try:
         spec = json.loads(path.read_text())
@@ -151,6 +168,9 @@ def load_model_json(path, *, material=None, length_unit: str | None = None, inte
         raise ModelFileError(path, f"cannot be read ({exc.__class__.__name__}: {exc})", "a readable JSON file") from None
     except ValueError as exc:
         raise ModelFileError(path, f"is not valid JSON ({exc})", JSON_ALLOWED) from None
+    except RecursionError:                    # json's recursive reader: arrays or objects nested ~1000 deep
+        raise ModelFileError(path, "nests JSON arrays or objects too deeply to read",
+                             f"a model JSON (nested at most {JSON_DEPTH} levels): {JSON_ALLOWED}") from None
     if not isinstance(spec, dict):
         raise ModelFileError(path, "is not a JSON object", JSON_ALLOWED)
     unknown = sorted(set(spec) - set(JSON_KEYS))
@@ -160,11 +180,14 @@ def load_model_json(path, *, material=None, length_unit: str | None = None, inte
     if not isinstance(spec.get("mesh"), str) or not spec["mesh"].strip():
         raise ModelFileError(path, f"missing or not a path: {shown(spec.get('mesh'))}", JSON_ALLOWED, entity="mesh")
     for key, given in (("material", material), ("length_unit", length_unit), ("integration", integration)):
-        if key in spec and given is not None:
+        if key in spec and given is not None and not (key == "material" and material_replaces):
             raise ParameterError(key, f"given both as an argument and in {shown(str(path))}", "one of the two")
     if "material" not in spec and material is None:
         raise ModelFileError(path, "missing (and no material argument)", JSON_ALLOWED, entity="material")
-    mat = check_material(spec["material"], "material", path) if "material" in spec else check_material(material)
+    notes = [f"model JSON {path}"]
+    if material is not None and "material" in spec:
+        notes.append(f"material given as an argument, replacing {path.name}'s")
+    mat = check_material(material) if material is not None else check_material(spec["material"], "material", path)
     unit = length_unit
     if "length_unit" in spec:
         if not isinstance(spec["length_unit"], str) or spec["length_unit"].strip() not in UNITS_ALLOWED.split(" | "):
@@ -178,5 +201,5 @@ def load_model_json(path, *, material=None, length_unit: str | None = None, inte
     if not mesh_path.is_file():
         raise ModelFileError(path, f"no such mesh file: {shown(str(mesh_path))}", "an existing mesh file", entity="mesh")
     name = spec.get("name") if isinstance(spec.get("name"), str) else path.stem
-    return load_mesh(mesh_path, material=mat, length_unit=unit, name=name, integration=integration,
-                     provenance_notes=(f"model JSON {path}",))
+    return read_mesh_file(mesh_path, material=mat, length_unit=unit, name=name, integration=integration,
+                          provenance_notes=tuple(notes))
