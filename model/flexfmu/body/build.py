@@ -127,6 +127,7 @@ def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n
                              "has no free-body form", '"file" (clamped on those DOFs) or a node set')
     if clamp is None:
         kind, fixed, how = "free", np.zeros(0, dtype=np.int64), "free (no clamp)"
+        check_parts(checked, fixed, how)
         sized = free_modes(checked, LoadCase(groups, outputs), **size)
         arrays = free_invariants(checked, sized.basis)
         mass, com, inertia = float(sized.basis.mass), sized.basis.center_of_mass, sized.basis.inertia
@@ -136,6 +137,7 @@ def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n
         free = np.setdiff1d(np.arange(n_dof), fixed)
         if free.size == 0:
             raise ParameterError("clamp", f"{how} fixes every DOF", "a clamp that leaves the body free to deform")
+        check_parts(checked, fixed, how)
         _check_held(checked, fixed, how)
         groups.update(base_patterns(checked))
         try:
@@ -197,10 +199,70 @@ def _with_added_mass(structure: Structure, patches, added_mass: dict, free: bool
     return dataclasses.replace(structure, M=(structure.M + extra).tocsr())
 
 
-def _check_held(structure, fixed: np.ndarray, how: str) -> None:
+def node_parts(structure: Structure) -> tuple[int, np.ndarray]:
+    """(number of parts, part of each node): the nodes joined by stiffness (a nonzero entry of K between any of
+    their DOFs; a node without any is a part of its own)."""
+    from scipy.sparse.csgraph import connected_components
+
+    dpn = int(structure.dofs_per_node)
+    n = int(structure.nodes.shape[0])
+    K = sp.coo_matrix(structure.K)
+    coupled = K.data != 0.0
+    graph = sp.csr_matrix((np.ones(int(coupled.sum())), (K.row[coupled] // dpn, K.col[coupled] // dpn)), shape=(n, n))
+    return connected_components(graph, directed=False)
+
+
+def _nodes_text(structure: Structure, members: np.ndarray, shown_ids: int = 5) -> str:
+    """'12 node(s) (indices 40, 41, ... of the model's nodes, 0-based; the first at (x, y, z) m)', the file's node
+    numbers instead when it numbers them (Nastran GRIDs, MAPDL nodes)."""
+    ids = structure.meta.get("node_ids") if isinstance(structure.meta, dict) else None
+    numbers = np.asarray(ids)[members] if ids is not None and len(ids) == structure.nodes.shape[0] else members
+    first = ", ".join(str(int(k)) for k in numbers[:shown_ids]) + (", ..." if members.size > shown_ids else "")
+    kind = "the file's node numbers" if numbers is not members else "indices of the model's nodes, 0-based"
+    x = np.asarray(structure.nodes, dtype=float)[members[0]]
+    return f"{members.size} node(s) ({kind}: {first}; the first at ({x[0]:.4g}, {x[1]:.4g}, {x[2]:.4g}) m)"
+
+
+def check_parts(structure: Structure, fixed: np.ndarray, how: str) -> None:
+    """Refuse a body in pieces (node_parts): free (``fixed`` empty), any second part ("singular free body", as the
+    modal basis would find: more than six zero-energy modes); clamped, any part the clamp does not hold by all its
+    rigid-body motions (not connected to the clamped set: it would drift).  The message names the part's nodes."""
+    n_parts, part = node_parts(structure)
+    if n_parts == 1:
+        return
+    sizes = np.bincount(part, minlength=n_parts)
+    if fixed.size == 0:
+        loose = [k for k in np.argsort(-sizes, kind="stable")[1:]]        # every part but the largest
+        members = np.flatnonzero(part == loose[0])
+        raise ParameterError("structure.K", f"singular free body: {n_parts} parts not connected to each other; "
+                             f"{'a' if n_parts == 2 else 'the first'} loose part: {_nodes_text(structure, members)}",
+                             "a connected free-free structure with exactly six rigid-body modes")
+    dpn = int(structure.dofs_per_node)
+    fixed_nodes = np.zeros(structure.nodes.shape[0], dtype=bool)
+    fixed_nodes[np.asarray(fixed, dtype=np.int64) // dpn] = True
+    fully_fixed = np.zeros(structure.nodes.shape[0] * dpn, dtype=bool)
+    fully_fixed[fixed] = True
+    fully_fixed = fully_fixed.reshape(-1, dpn).all(axis=1)
+    for k in np.argsort(-sizes, kind="stable"):
+        members = np.flatnonzero(part == k)
+        if np.all(fully_fixed[members]):
+            continue                        # nothing of it moves (a clamped node the model file keeps no K for)
+        if not np.any(fixed_nodes[members]):
+            raise ParameterError("clamp", f"{how} leaves a part of the body free: it is not connected to the clamped "
+                                 f"nodes ({n_parts} parts in all); the loose part: {_nodes_text(structure, members)}",
+                                 "every part of the body connected to the clamped nodes (one connected structure)")
+        part_dofs = (members[:, None] * dpn + np.arange(dpn)).ravel()
+        _check_held(structure, np.flatnonzero(np.isin(part_dofs, fixed)), how, members,
+                    f"; the part: {_nodes_text(structure, members)}" if n_parts > 1 else "")
+
+
+def _check_held(structure, fixed: np.ndarray, how: str, members=None, where: str = "") -> None:
     """Refuse clamps that leave a rigid-body motion free: the six rigid fields (translations, rotations about the
-    centroid, scaled by the size) restricted to the fixed DOFs must have rank 6."""
+    centroid, scaled by the size) restricted to the fixed DOFs must have rank 6.  ``members``: the nodes of one
+    part (``fixed`` then indexes the part's DOFs, node by node), default all."""
     nodes = np.asarray(structure.nodes, dtype=float)
+    if members is not None:
+        nodes = nodes[members]
     centre = nodes.mean(axis=0)
     size = float(np.linalg.norm(np.ptp(nodes, axis=0))) or 1.0
     T, S0 = rigid_fields(nodes - centre, int(structure.dofs_per_node))
@@ -208,6 +270,6 @@ def _check_held(structure, fixed: np.ndarray, how: str) -> None:
     sv = np.linalg.svd(rigid, compute_uv=False) if rigid.size else np.zeros(0)
     rank = int(np.count_nonzero(sv > _FREE_MOTION_RTOL * max(sv.max(initial=0.0), 1.0)))
     if rank < 6:
-        raise ParameterError("clamp", f"{how} leaves the body free to move ({6 - rank} rigid-body motion(s) not held)",
-                             "clamps that hold every rigid-body motion (e.g. three non-colinear nodes of a solid, "
-                             "or one beam node)")
+        raise ParameterError("clamp", f"{how} leaves the body free to move ({6 - rank} rigid-body motion(s) not held"
+                             f"{where})", "clamps that hold every rigid-body motion (e.g. three non-colinear nodes "
+                             "of a solid, or one beam node)")

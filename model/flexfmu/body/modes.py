@@ -39,7 +39,7 @@ class NaturalModes:
 def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6) -> NaturalModes:
     """The lowest ``n_modes`` natural modes: clamped as build_body's ``clamp`` ("file" or a node-set name),
     or free (clamp None: elastic modes only)."""
-    from flexfmu.body.build import clamped_dofs
+    from flexfmu.body.build import check_parts, clamped_dofs
     from flexfmu.core.io import validate_structure
     from flexfmu.linalg.modal import solve_modes
     from flexfmu.linalg.modal_basis import mass_properties, modal_basis
@@ -49,10 +49,12 @@ def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6) -> Natu
     checked = validate_structure(structure)
     mass = float(mass_properties(checked).mass)
     if clamp is None:
+        check_parts(checked, np.zeros(0, dtype=np.int64), "free")
         basis = modal_basis(checked, int(n_modes), damping_ratio=0.0)
         return NaturalModes(structure.name, "free", "free: the six rigid-body modes left out",
                             np.asarray(basis.frequencies_hz, float), np.asarray(basis.flexible), mass)
     fixed, how = clamped_dofs(structure, clamp)
+    check_parts(checked, fixed, how)
     free = np.setdiff1d(np.arange(checked.n_dof), fixed)
     if n_modes > free.size:
         raise ParameterError("modes", f"{n_modes}", f"1 ... {free.size} (the DOFs the clamp leaves free)")
