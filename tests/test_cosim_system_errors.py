@@ -304,3 +304,14 @@ def test_library_run_refuses_a_result_beyond_the_memory_limit():
         run(system, 1e6, 1e-3, backend="library")
     with pytest.raises(ParameterError, match="max-memory"):
         run(system, 1.0, 1e-3, backend="library", max_result_bytes=1000)
+
+
+@pytest.mark.parametrize("option", ["--out", "--plot"])
+def test_an_output_that_cannot_be_written_is_refused_before_the_run(option, tmp_path, capsys):
+    """Not after the run, with IsADirectoryError or FileExistsError from the writer."""
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    for bad in (tmp_path, a_file / "results.csv"):
+        assert cli.main(["cosim", str(EXAMPLE), "--t-end", "1e6", "--master", "library", option, str(bad)]) == 2
+        err = _one_error_line(capsys)
+        assert f"error: {option[2:]}: " in err and repr(str(bad)) in err, err

@@ -130,3 +130,21 @@ def test_an_empty_matrix_is_never_written(tmp_path):
         with pytest.raises(FlexfmuError, match="no cell"):
             write(tmp_path / "m.x")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("option", ["--out", "--plot"])
+def test_an_output_that_cannot_be_written_is_refused_before_any_run(option, tmp_path, capsys, no_runs):
+    a_file = tmp_path / "a_file.txt"
+    a_file.write_text("x")
+    for bad in (tmp_path, a_file / "m.csv"):
+        assert _power_matrix(tmp_path, option, str(bad)) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"error: {option[2:]}: " in err and repr(str(bad)) in err, err
+    assert _written(tmp_path) == []
+
+
+def test_a_sweep_beyond_the_run_limit_is_refused_at_once(tmp_path, capsys, no_runs):
+    """10^9 seeds would build a billion cases before the first run: refused naming the count and the limit."""
+    assert _power_matrix(tmp_path, "--seeds", "1000000000") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "1e+09 co-simulations" in err and "seeds" in err, err

@@ -6,7 +6,7 @@ import math
 import sys
 from pathlib import Path
 
-from flexfmu.cosim.checks import MAX_RESULT_BYTES
+from flexfmu.cosim.checks import MAX_RESULT_BYTES, check_output_path
 from flexfmu.errors import FlexfmuError, ParameterError
 
 
@@ -31,6 +31,8 @@ def _cosim(args: argparse.Namespace) -> int:
         raise ParameterError("max-memory", f"{args.max_memory!r} GiB", "a finite limit > 0 GiB")
     max_bytes = args.max_memory * 2**30
     n = cosim.n_steps(args.t_end, system.start_time, h)
+    check_output_path(args.out, "out")
+    check_output_path(args.plot, "plot")
     if args.plot is not None:   # before the run: the chart needs a wave-energy converter's roster
         try:
             wec.roster(system)

@@ -20,18 +20,24 @@ def _wec_power_matrix(args: argparse.Namespace) -> int:
     saying how many failed, why and the first one's message; a matrix without a computed cell is not written."""
     import numpy as np
 
+    from flexfmu.cosim.checks import check_output_path
     from flexfmu.cosim.masters import load_system
     from flexfmu.wec import system as wec
-    from flexfmu.wec.sweeps import check_runs, failure_summary
+    from flexfmu.wec.sweeps import check_run_count, check_runs, failure_summary
 
     if args.seeds < 1:
         raise ParameterError("seeds", f"{args.seeds}", "integer >= 1")
     if args.workers < 1:
         raise ParameterError("workers", f"{args.workers}", "integer >= 1")
     max_steepness = wec.MAX_STEEPNESS if args.max_steepness is None else args.max_steepness
+    heights, periods = _floats(args.hs, "hs"), _floats(args.tp, "tp")
+    check_run_count(len(heights) * len(periods) * args.seeds, "hs, tp, seeds")
     check_runs(load_system(args.system_file, fmu_dir=args.fmu_dir), args.t_end, args.step, args.backend)
+    check_output_path(args.out, "out")
+    check_output_path(args.out.with_name(args.out.stem + "_runs.csv"), "out")
+    check_output_path(args.plot, "plot")
     scheduler = None if args.serial else (args.scheduler or "local")
-    matrix = wec.power_matrix(args.system_file, _floats(args.hs, "hs"), _floats(args.tp, "tp"),
+    matrix = wec.power_matrix(args.system_file, heights, periods,
                               seeds=range(1, args.seeds + 1), t_end=args.t_end, step=args.step,
                               boundary=args.boundary, backend=args.backend, fmu_dir=args.fmu_dir,
                               scheduler=scheduler, n_workers=args.workers, max_steepness=max_steepness,

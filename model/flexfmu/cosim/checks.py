@@ -10,7 +10,9 @@ line before any step.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 from flexfmu.cosim.slaves import Interface, interface, start_value, value_where
 from flexfmu.cosim.system import System
@@ -54,6 +56,21 @@ def check_result_memory(n: int, n_outputs: int, h: float, max_result_bytes: floa
                              f"each, would need {need / _GIB:.3g} GiB of memory",
                              f"at most {max_result_bytes / _GIB:.4g} GiB of recorded results, here {most:.4g} steps: "
                              "a shorter --t-end, a larger --step, or a larger --max-memory")
+
+
+def check_output_path(path, option: str) -> None:
+    """Refuse, before a run, an output file that could not be written after it: an existing folder, or a path
+    whose nearest existing parent is a file or a folder this process may not write in."""
+    if path is None:
+        return
+    path = Path(path)
+    require(not path.is_dir(), option, f"{str(path)!r} is a folder", "a file path")
+    parent = path.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    require(parent.is_dir(), option, f"{str(path)!r}: {str(parent)!r} is a file", "a path inside folders")
+    require(os.access(parent, os.W_OK), option, f"{str(path)!r}: {str(parent)!r} is not writable",
+            "a path in a folder you may write in")
 
 
 def _connection_text(sa, va, sb, vb) -> str:

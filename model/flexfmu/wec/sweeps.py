@@ -15,6 +15,18 @@ from flexfmu.cosim.checks import MAX_RESULT_BYTES, check_result_memory, check_sy
 from flexfmu.errors import ParameterError, require
 
 
+#: The most co-simulations one sweep takes: its cases and their rows are held in memory, and at a second or more
+#: per run 10^5 runs are a day on one worker.  A larger study is several sweeps.
+MAX_SWEEP_RUNS = 100_000
+
+
+def check_run_count(n_runs: int, what: str) -> None:
+    """Refuse a sweep of more than MAX_SWEEP_RUNS co-simulations before its cases are made; ``what`` names the
+    options that multiply to n_runs."""
+    require(n_runs <= MAX_SWEEP_RUNS, what, f"{n_runs:.4g} co-simulations",
+            f"at most {MAX_SWEEP_RUNS:g} in one sweep")
+
+
 def check_runs(system, t_end: float, step: float | None, backend: str,
                max_result_bytes: float = MAX_RESULT_BYTES) -> None:
     """What every co-simulation of a sweep would refuse, checked once before the first: the run's length (t_end,
