@@ -15,7 +15,7 @@ The point must lie at its patch: within max(patch radius, local spacing) of the 
 patch radius is the largest distance of a patch node from the patch centroid and the local spacing the
 distance from that nearest node to the closest other node of the structure.  So a point on or inside the
 meshed material, or at the centre of a ring of nodes (a bolt hole's wall), is accepted; a point away from
-the body is not.
+the body is not (flexfmu.core.body_points: the rule ReframeBody's load and output points follow too).
 
 Distribution.  The point's motion (u, theta) is the weighted least-squares rigid fit of the patch motion:
 
@@ -44,6 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from flexfmu.core.body_points import element_neighbours, patch_reach
+from flexfmu.core.body_points import local_spacing as _local_spacing  # noqa: F401  (its former home)
 from flexfmu.core.checks import finite, shown
 from flexfmu.errors import ParameterError
 
@@ -54,7 +56,6 @@ NAME_ALLOWED = "a letter, then letters, digits or _ (at most 64), unique in the 
 RANK_RTOL = 1e-8
 #: a force needs its point on the axis of a rotation the patch cannot carry, within this fraction of the patch size
 LEVER_RTOL = 1e-6
-_SLACK = 1e-9                      # relative slack of the point-at-patch rule (round-off of the coordinates)
 
 
 @dataclass(frozen=True)
@@ -162,13 +163,6 @@ def _check_spec(spec: Interface, index: int, names: set) -> tuple[str, np.ndarra
     return name, point
 
 
-def _neighbours(K, node: int, dpn: int) -> np.ndarray:
-    """Nodes coupled to ``node`` in K (the nodes of the elements around it), itself included (also when its
-    rows are empty: a DOF the model file constrained may carry no stiffness)."""
-    rows = K[node * dpn:(node + 1) * dpn]
-    return np.union1d(rows.indices // dpn, [node])
-
-
 def _patch_nodes(structure, spec: Interface, name: str, point: np.ndarray, dpn: int):
     nodes = structure.nodes
     dist = np.linalg.norm(nodes - point, axis=1)
@@ -196,13 +190,8 @@ def _patch_nodes(structure, spec: Interface, name: str, point: np.ndarray, dpn: 
     nearest = int(np.argmin(dist))
     if dpn == 6:
         return np.array([nearest]), f"the nearest node ({nearest})"
-    return _neighbours(structure.K.tocsr(), nearest, dpn), f"the nearest node ({nearest}) and its element neighbours"
-
-
-def _local_spacing(nodes: np.ndarray, node: int) -> float:
-    d = np.linalg.norm(nodes - nodes[node], axis=1)
-    d[node] = np.inf
-    return float(d.min()) if d.size > 1 else 0.0
+    return (element_neighbours(structure.K.tocsr(), nearest, dpn),
+            f"the nearest node ({nearest}) and its element neighbours")
 
 
 def _fit(r: np.ndarray, dpn: int, with_rotations: bool, length: float):
@@ -231,17 +220,12 @@ def _resolve(structure, spec: Interface, name: str, point: np.ndarray) -> Patch:
     nodes_xyz = np.asarray(structure.nodes, dtype=float)
     members, rule = _patch_nodes(structure, spec, name, point, dpn)
     xyz = nodes_xyz[members]
-    centroid = xyz.mean(axis=0)
-    radius = float(np.max(np.linalg.norm(xyz - centroid, axis=1)))
-    d = np.linalg.norm(xyz - point, axis=1)
-    near = int(members[np.argmin(d)])
-    spacing = _local_spacing(nodes_xyz, near)
-    size = float(np.linalg.norm(np.ptp(nodes_xyz, axis=0))) or 1.0
-    limit = max(radius, spacing)
-    if not d.min() <= limit * (1 + _SLACK) + _SLACK * size:
-        raise ParameterError(f"interfaces.{name}.point", f"{point.tolist()} m is {d.min():.4g} m from the nearest node "
-                             f"of its patch ({rule}): outside the body",
-                             f"a point within max(patch radius, local node spacing) = {limit:.4g} m of the patch")
+    reach = patch_reach(nodes_xyz, members, point)
+    radius, spacing, size = reach.radius, reach.spacing, reach.size
+    if not reach.on_body:
+        raise ParameterError(f"interfaces.{name}.point", f"{point.tolist()} m is {reach.distance:.4g} m from the "
+                             f"nearest node of its patch ({rule}): outside the body",
+                             f"a point within max(patch radius, local node spacing) = {reach.reach:.4g} m of the patch")
     length = radius if radius > 0 else (spacing or size)
     r = xyz - point
     scale = np.diag([1.0, 1.0, 1.0, 1.0 / length, 1.0 / length, 1.0 / length])   # rotations as l theta: A ~ O(1)
