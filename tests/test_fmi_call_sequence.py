@@ -15,7 +15,8 @@ from fmu_helpers import Instance
 DOC = Path(__file__).resolve().parents[1] / "docs" / "fmu.md"
 STATES = ["Instantiated", "InitializationMode", "StepComplete", "StepFailed", "Terminated", "Error"]
 SMALL = {"model": "beam:spatial_double_L", "n_flexible_modes": 4, "scheme": "consistent",
-         "max_internal_steps": 100}
+         "max_internal_steps": 100, "load_point_x": 0.0, "load_point_y": 0.0, "load_point_z": 0.0,   # on the rod
+         "output_point_x": 0.0, "output_point_y": 0.0, "output_point_z": 0.0}
 
 
 def table() -> dict[str, list[str] | None]:

@@ -30,7 +30,8 @@ CASES = {
                 {"F_z": 1.5, "base_a_x": 0.5},
                 ["sensor_u_z", "sensor_v_z", "sensor_a_x", "reaction_F_z", "reaction_M_y", "f_1"]),
     "ReframeBody": ({"model": ("string", "beam:spatial_double_L"), "n_flexible_modes": ("int", 4),
-                     "omega0_3": ("real", 1.0)},
+                     "omega0_3": ("real", 1.0),    # the load and output points on the rod (its first node)
+                     **{f"{p}_point_{a}": ("real", 0.0) for p in ("load", "output") for a in "xyz"}},
                     {"F_x": 2.0, "M_z": 0.01},
                     ["omega_1", "omega_3", "com_vel_x", "out_acc_y", "q_w"]),
     # an FMU of flexfmu export (the fixture below): a straight steel rod, free, pushed at one end

@@ -45,7 +45,9 @@ SINGLE = {
     "FFRBeam": ({"boundary": "XFX", "damping_ratio": 0.02, "load_s": 0.3, "F_z": 150.0, "base_a_x": 0.5},
                 ["sensor_a_x", "sensor_a_z", "reaction_F_z", "reaction_M_x", "reaction_M_y"], 20),
     "ReframeBody": ({"model": "beam:spatial_double_L", "n_flexible_modes": 4, "load_point_x": 0.14,
-                     "load_point_y": 0.15, "load_point_z": 0.16, "omega0_3": 1.0, "F_x": 20.0, "M_z": 0.1},
+                     "load_point_y": 0.15, "load_point_z": 0.16,
+                     "output_point_x": 0.0, "output_point_y": 0.0, "output_point_z": 0.0, "omega0_3": 1.0,
+                     "F_x": 20.0, "M_z": 0.1},
                     ["omega_1", "omega_3", "com_vel_x", "out_acc_y", "q_w"], 20),
 }
 # The harvester and its damper from examples/wave_converter, the base shaken upwards.

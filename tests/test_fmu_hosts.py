@@ -48,7 +48,8 @@ CASES = {
                 lambda t: {"F_z": 1.5 * np.sin(60 * t), "base_a_x": 0.5, "base_w_z": 0.3},
                 ["sensor_u_y", "sensor_a_x", "sensor_u_z", "reaction_F_z", "reaction_M_x"]),
     "ReframeBody": ({"model": "beam:spatial_double_L", "n_flexible_modes": 4, "load_point_x": 0.14,
-                     "load_point_y": 0.15, "load_point_z": 0.16, "omega0_3": 1.0},
+                     "load_point_y": 0.15, "load_point_z": 0.16,
+                     "output_point_x": 0.0, "output_point_y": 0.0, "output_point_z": 0.0, "omega0_3": 1.0},
                     lambda t: {"F_x": 2.0 * np.cos(30 * t), "M_z": 0.01},
                     ["omega_1", "omega_2", "omega_3", "com_vel_x", "out_acc_y", "q_w", "max_elastic_displacement"]),
 }
@@ -106,6 +107,7 @@ MIXED = {
     "components": {"beam": ("FFRBeam", {"boundary": "XFX", "damping_ratio": 0.02, "load_s": 0.3}),
                    "body": ("ReframeBody", {"model": "beam:spatial_double_L", "n_flexible_modes": 4,
                                             "load_point_x": 0.14, "load_point_y": 0.15, "load_point_z": 0.16,
+                                            "output_point_x": 0.0, "output_point_y": 0.0, "output_point_z": 0.0,
                                             "omega0_3": 1.0}),
                    "wave": ("WaveExcitation", {"wave_height": 0.002, "ramp_time": 0.0})},
     "connections": [("wave", "F_z", "beam", "F_z"), ("wave", "F_x", "body", "F_x"), ("wave", "M_y", "body", "M_y")],

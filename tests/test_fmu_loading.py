@@ -18,7 +18,8 @@ from flexfmu.fmi.diagnostics import cycles, exit_stress
 from flexfmu.fmi.loader import package_build_id
 
 SMALL_REFRAME = {"model": "beam:spatial_double_L", "n_flexible_modes": 4, "load_point_x": 0.14,
-                 "load_point_y": 0.15, "load_point_z": 0.16, "omega0_3": 1.0}
+                 "load_point_y": 0.15, "load_point_z": 0.16,
+                 "output_point_x": 0.0, "output_point_y": 0.0, "output_point_z": 0.0, "omega0_3": 1.0}
 #: (FMU, start values, outputs): small runs whose final outputs are compared
 RUNS = {
     "ffr_damped": ("FFRBeam", {"damping_ratio": 0.02, "base_w_z": 0.0}, ["tip_u_z", "sensor_a_x", "reaction_F_z"]),

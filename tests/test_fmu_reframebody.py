@@ -56,7 +56,8 @@ def test_constant_force_gives_newtons_com_velocity(body):
 
 def test_rollback_is_bit_identical(body):
     inst = body(model="beam:spatial_double_L", n_flexible_modes=4, load_point_x=0.14, load_point_y=0.15,
-                load_point_z=0.16, omega0_3=2.0).initialize()
+                load_point_z=0.16, output_point_x=0.0, output_point_y=0.0, output_point_z=0.0,
+                omega0_3=2.0).initialize()
 
     def run(t0, n):
         out = []
@@ -73,10 +74,14 @@ def test_rollback_is_bit_identical(body):
     assert np.array_equal(run(0.01, 10), first)
 
 
+#: points on the rod (its first node; the defaults are the plate's)
+ON_ROD = dict(load_point_x=0.0, load_point_y=0.0, load_point_z=0.0, output_point_x=0.0, output_point_y=0.0,
+              output_point_z=0.0)
 ERRORS = [
     ("unknown model", {"model": "no_such_model"}, "model"),
     ("unknown scheme", {"scheme": "euler"}, "scheme"),
-    ("internal step beyond the RK4 limit", {"model": "beam:spatial_double_L", "scheme": "consistent", "internal_step": 1.0}, "internal_step"),
+    ("internal step beyond the RK4 limit", {"model": "beam:spatial_double_L", "scheme": "consistent", "internal_step": 1.0,
+                                            **ON_ROD}, "internal_step"),
     ("negative modes", {"model": "beam:spatial_double_L", "n_flexible_modes": -2}, "n_flexible_modes"),
     ("damping", {"model": "beam:spatial_double_L", "damping_ratio": -0.1}, "damping_ratio"),
 ]
@@ -90,7 +95,7 @@ def test_bad_parameters_fail_initialisation_naming_them(body, label, start, name
 
 
 def test_moment_on_a_solid_model_is_refused(body):
-    inst = body(model="beam:spatial_double_L", n_flexible_modes=2).initialize()
+    inst = body(model="beam:spatial_double_L", n_flexible_modes=2, **ON_ROD).initialize()
     inst.set(M_x=1.0)
     inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)   # beams take moments
     solid = body("plate", n_flexible_modes=2).initialize()
@@ -101,7 +106,7 @@ def test_moment_on_a_solid_model_is_refused(body):
 
 # --------------------------------------------------------------------------- outputs computed when read
 _SPINNING_ROD = dict(model="beam:spatial_double_L", n_flexible_modes=4, load_point_x=0.14, load_point_y=0.15,
-                     load_point_z=0.16, omega0_3=15.0)
+                     load_point_z=0.16, output_point_x=0.0, output_point_y=0.0, output_point_z=0.0, omega0_3=15.0)
 
 
 def _force(k):

@@ -14,6 +14,8 @@ from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
 BEAM = "beam:spatial_double_L"            # free-free bent rod; flexible modes 148, 266, 280, 980, ... Hz
 TIP = (0.14, 0.15, 0.16)                  # its free end (node 12 with 8 elements per segment: the last node)
+#: the output point at the rod's first node (the default is the plate's, off the rod: refused)
+FIRST_NODE = dict(output_point_x=0.0, output_point_y=0.0, output_point_z=0.0)
 
 
 @pytest.fixture
@@ -27,10 +29,11 @@ def _ok_messages(inst):
 
 def test_auto_model_size_is_logged_with_its_numbers(body):
     inst = body(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3, scheme="exponential",
-                load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2]).initialize()
+                load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2], **FIRST_NODE).initialize()
     text = "\n".join(_ok_messages(inst))
     sim = ReframeBodySimulator(ReframeBodyConfig(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3,
-                                                 load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2]))
+                                                 load_point_x=TIP[0], load_point_y=TIP[1], load_point_z=TIP[2],
+                                                 **FIRST_NODE))
     assert text.startswith("\n".join(sim.messages))       # the library's messages, word for word
     assert sim.messages[:2] == list(sim.model_choice.messages)           # the typed choice is what is logged
     assert sim.model_choice.basis.n_flexible == sim.integrator.data.nf     # the modes and 6 residual vectors
@@ -57,7 +60,7 @@ def test_auto_model_static_deflection_of_the_load_point_is_exact():
     C_ref = (V[rows][:, flex] / lam[flex]) @ V[rows][:, flex].T
     sim = ReframeBodySimulator(ReframeBodyConfig(model=BEAM, n_flexible_modes=-1, f_max=500.0, tolerance=1e-3,
                                                  scheme="exponential", load_point_x=TIP[0], load_point_y=TIP[1],
-                                                 load_point_z=TIP[2]))
+                                                 load_point_z=TIP[2], **FIRST_NODE))
     basis = sim.integrator.data.basis
     n_keep = basis.n_flexible - 6                                    # modes, then the 6 residual vectors
     assert n_keep > 3 and np.all(basis.frequencies_hz[:3] <= 500.0) and basis.frequencies_hz[3] > 500.0
@@ -81,7 +84,7 @@ def test_communication_step_beyond_the_rk4_limit_is_substepped_and_logged(body):
     is detected, split into 33 internal steps (90 % of the limit) and logged once; the result equals the
     library with dt = 10 ms / 33."""
     inst = body(model=BEAM, scheme="consistent", n_flexible_modes=6, omega0_3=3.0, load_point_x=TIP[0],
-                load_point_y=TIP[1], load_point_z=TIP[2]).initialize()
+                load_point_y=TIP[1], load_point_z=TIP[2], **FIRST_NODE).initialize()
     F = np.array([0.5, -0.2, 1.0])
     inst.set(F_x=F[0], F_y=F[1], F_z=F[2])
     for k in range(3):
@@ -107,7 +110,7 @@ def test_exponential_scheme_through_the_fmu(body):
     the consistent scheme at dt = 1e-5 s within 1e-6 (relative) while the consistent FMU needs 33 internal
     steps per communication step."""
     start = dict(model=BEAM, n_flexible_modes=6, omega0_1=1.0, omega0_3=3.0, load_point_x=TIP[0],
-                 load_point_y=TIP[1], load_point_z=TIP[2])
+                 load_point_y=TIP[1], load_point_z=TIP[2], **FIRST_NODE)
     inst = body(scheme="exponential", **start).initialize()
     F = np.array([0.05, -0.02, 0.1])
     inst.set(F_x=F[0], F_y=F[1], F_z=F[2])

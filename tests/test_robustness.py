@@ -31,7 +31,8 @@ pytestmark = pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarn
                                         "ignore:invalid value encountered:RuntimeWarning")
 
 BEAM = "beam:spatial_double_L"
-TIP = dict(load_point_x=0.14, load_point_y=0.15, load_point_z=0.16)
+TIP = dict(load_point_x=0.14, load_point_y=0.15, load_point_z=0.16,   # the free end; the output point at the first
+           output_point_x=0.0, output_point_y=0.0, output_point_z=0.0)   # node (points must lie on the body)
 #: exception types that must never leave a simulator (the FMU maps only FlexfmuError to a named message)
 STRAY = (OverflowError, FloatingPointError, ZeroDivisionError, RecursionError, UnicodeDecodeError)
 

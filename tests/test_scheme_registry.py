@@ -138,7 +138,9 @@ def test_reframebody_simulator_takes_the_registered_scheme(halved):
     """ReframeBody with internal steps h in the registered scheme equals the consistent scheme with h / 2."""
     from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
-    common = dict(model="beam:spatial_double_L", n_flexible_modes=4, omega0_1=3.0, omega0_3=-5.0)
+    common = dict(model="beam:spatial_double_L", n_flexible_modes=4, omega0_1=3.0, omega0_3=-5.0,
+                  load_point_x=0.0, load_point_y=0.0, load_point_z=0.0, output_point_x=0.0, output_point_y=0.0,
+                  output_point_z=0.0)                         # the rod's first node (points must lie on the body)
     sims = [ReframeBodySimulator(ReframeBodyConfig(scheme=NAME, internal_step=2.5e-4, **common)),
             ReframeBodySimulator(ReframeBodyConfig(scheme="consistent", internal_step=1.25e-4, **common)),
             ReframeBodySimulator(ReframeBodyConfig(scheme="consistent", internal_step=2.5e-4, **common))]

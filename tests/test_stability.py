@@ -100,6 +100,7 @@ def test_reframe_body_sub_steps_automatically_or_refuses_internal_step():
     from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
 
     cfg = ReframeBodyConfig(model="beam:spatial_double_L", scheme="consistent", n_flexible_modes=3,
+                            load_point_x=0.0, load_point_y=0.0, load_point_z=0.0,    # on the rod (its first node)
                             output_point_x=0.14, output_point_y=0.15, output_point_z=0.16)
     w_max = natural_frequencies(load_model("beam:spatial_double_L"))[6 + 2]
     limit = RK4_STABILITY_LIMIT / w_max

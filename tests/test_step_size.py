@@ -103,7 +103,9 @@ def test_lti_kernel_updates_its_maps_once_for_the_clock_steps(ffr_simulator):
 def test_exponential_scheme_keeps_one_coefficient_set_for_the_clock_steps():
     """The ReframeBody simulator asks its (shared) integrator for the coefficients of its own first step only."""
     from flexfmu.reframe.simulator import ReframeBodyConfig, ReframeBodySimulator
-    sim = ReframeBodySimulator(ReframeBodyConfig(model="beam:spatial_double_L", n_flexible_modes=4))
+    origin = dict(load_point_x=0.0, load_point_y=0.0, load_point_z=0.0, output_point_x=0.0, output_point_y=0.0,
+                  output_point_z=0.0)                         # the rod's first node (points must lie on the body)
+    sim = ReframeBodySimulator(ReframeBodyConfig(model="beam:spatial_double_L", n_flexible_modes=4, **origin))
     cache = sim.integrator._ex_cache
     before = set(cache)
     for h in clock_steps(50, step=1e-3):

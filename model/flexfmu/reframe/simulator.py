@@ -1,5 +1,3 @@
-# Over 500 lines on purpose: one FMU's configuration, set-up, internal-step choice, step, outputs and their
-# failure diagnostics, which share the held inputs and rates; the integrator and the model size live elsewhere.
 """ReframeBody: the reframe integrator with named inputs and outputs (what ReframeBody.fmu wraps).
 
 Inputs are held over each communication step (zero-order hold); the step is split into equal
@@ -40,15 +38,14 @@ they set the step limit.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from functools import lru_cache
 
 import numpy as np
 
 from flexfmu.core.step_size import StepSizes
 from flexfmu.core.blas import limited_for
-from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MIN_COMMUNICATION_STEP, check_max_internal_steps, culprit,
-                            finite, finite_input, is_int, require_bool, require_real, require_str, shown)
+from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit, finite_input, shown
 from flexfmu.errors import FlexfmuError, NonFiniteError, ParameterError, require
 from flexfmu.sizing.solid import BasisChoice, auto_basis
 from flexfmu.linalg.modal_basis import modal_basis
@@ -56,22 +53,13 @@ from flexfmu.native import step_policy
 from flexfmu.reframe.models import load_model
 from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, ReframeIntegrator, ReframeState
+# the parameters, their checks and the variables' names and meaning (importable from here, as the registry does)
+from flexfmu.reframe.body_config import (AXES, DEFERRED_OUTPUTS, INPUT_NAMES, OUTPUT_NAMES,  # noqa: F401
+                                         TOLERANCE_RANGE, VARIABLE_INFO, ReframeBodyConfig, _INITIAL,
+                                         check_config, check_points)
 
 _INF = math.inf             # a module constant: cheaper than math.inf on the per-step path
-AXES = ("x", "y", "z")
-INPUT_NAMES = tuple(f"F_{a}" for a in AXES) + tuple(f"M_{a}" for a in AXES)
-OUTPUT_NAMES = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES)
-                + ("q_w", "q_x", "q_y", "q_z") + tuple(f"omega_{i}" for i in (1, 2, 3))
-                + tuple(f"alpha_{i}" for i in (1, 2, 3)) + tuple(f"com_pos_{a}" for a in AXES)
-                + tuple(f"com_vel_{a}" for a in AXES) + tuple(f"out_pos_{a}" for a in AXES)
-                + tuple(f"out_vel_{a}" for a in AXES) + tuple(f"out_acc_{a}" for a in AXES)
-                + tuple(f"out_acc_rigid_{a}" for a in AXES) + ("max_elastic_displacement",))
-#: outputs whose cost grows with the mesh (a search over all nodes): output_vector(include_deferred=False)
-#: leaves them out and deferred_output_vector() gives them, so the FMU computes them only when they are read
-DEFERRED_OUTPUTS = ("max_elastic_displacement",)
 _AUTO_STEP_FRACTION = 0.9   # of the RK4 stability limit, for internal_step = 0
-#: tolerance: below 1e-8 the automatic model's static solve (shift 1e-8 omega_1^2) is no longer small against it
-TOLERANCE_RANGE = (1e-8, 1.0)
 
 
 def output_values(outputs) -> np.ndarray:
@@ -91,56 +79,6 @@ def _output_columns(nf: int) -> np.ndarray:
     return np.r_[layout.frame_origin, layout.frame_origin_velocity, layout.quaternion, layout.omega,
                  layout.alpha, layout.com_position, layout.com_velocity, point:point + 9, point + 15:point + 18,
                  layout.max_elastic_displacement]
-
-
-@dataclass(frozen=True)
-class ReframeBodyConfig:
-    """Parameters, named and defaulted as in the FMU (defaults: the paper's plate and load case)."""
-
-    model: str = "paper_plate"
-    scheme: str = "exponential"     # wins on accuracy per CPU second (benchmarks/reframe_exponential.py)
-    n_flexible_modes: int = 10
-    f_max: float = 100.0            # Hz, for n_flexible_modes = -1
-    tolerance: float = 1e-3         # static-correction and exponential-step tolerance
-    damping_ratio: float = 0.05
-    internal_step: float = 0.0
-    load_point_x: float = -0.5      # the paper's load point, midway between P5 and P8
-    load_point_y: float = 0.0
-    load_point_z: float = 0.01
-    output_point_x: float = -0.5    # P1
-    output_point_y: float = -0.025
-    output_point_z: float = 0.0
-    force_follows_body: bool = False
-    v0_x: float = 0.0
-    v0_y: float = 0.0
-    v0_z: float = 0.0
-    omega0_1: float = 0.0
-    omega0_2: float = 0.0
-    omega0_3: float = 0.0
-    max_internal_steps: int = DEFAULT_MAX_INTERNAL_STEPS
-
-
-_POINTS = ("load_point_x", "load_point_y", "load_point_z", "output_point_x", "output_point_y", "output_point_z")
-_INITIAL = ("v0_x", "v0_y", "v0_z", "omega0_1", "omega0_2", "omega0_3")
-
-
-def _check_config(c: ReframeBodyConfig) -> None:
-    """Types and ranges that need no model (before the cached set-up, which hashes them)."""
-    require_str(c.model, "model", "paper_plate | beam:<scene> | path to a .npz")
-    require(isinstance(c.scheme, str) and c.scheme in SCHEMES, "scheme", f"got {c.scheme!r}", " | ".join(SCHEMES))
-    require(is_int(c.n_flexible_modes) and c.n_flexible_modes >= -1, "n_flexible_modes", f"got {c.n_flexible_modes!r}",
-            "-1 (choose from f_max, tolerance) or 0 .. number of flexible modes")
-    for name in _POINTS + _INITIAL:
-        require(finite(getattr(c, name)), name, f"got {getattr(c, name)!r}", "a finite number")
-    require(finite(c.f_max) and c.f_max > 0.0, "f_max", f"got {c.f_max!r}", "> 0 Hz")
-    lo, hi = TOLERANCE_RANGE
-    require(finite(c.tolerance) and lo <= c.tolerance < hi, "tolerance", f"got {c.tolerance!r}",
-            f"{lo:g} <= tolerance < {hi:g} (relative)")
-    require_real(c.damping_ratio, "damping_ratio", "0 <= damping_ratio < 1", 0.0, 1.0, hi_open=True)
-    require(finite(c.internal_step) and c.internal_step >= 0.0, "internal_step", f"got {c.internal_step!r}",
-            "0 (automatic) or a step > 0 s")
-    require_bool(c.force_follows_body, "force_follows_body")
-    check_max_internal_steps(c.max_internal_steps)
 
 
 @lru_cache(maxsize=4)
@@ -194,14 +132,12 @@ class ReframeBodySimulator:
 
     def __init__(self, config: ReframeBodyConfig = ReframeBodyConfig()):
         self.config = c = config
-        _check_config(c)
+        check_config(c)
         self.messages: list[str] = []
         auto = c.n_flexible_modes == -1
-        load_node = output_node = None
-        if auto:
-            structure = _structure(c.model)
-            load_node, output_node = (int(np.argmin(np.linalg.norm(structure.nodes - np.array(p), axis=1))) for p in (
-                (c.load_point_x, c.load_point_y, c.load_point_z), (c.output_point_x, c.output_point_y, c.output_point_z)))
+        load_node, output_node = check_points(c, _structure(c.model))      # the nearest nodes of points on the body
+        if not auto:
+            load_node = output_node = None                               # the set-up's cache key: not needed
         self.integrator, self.model_choice = _integrator(c.model, c.n_flexible_modes, c.damping_ratio, c.scheme,
                                                          c.f_max if auto else None, c.tolerance if auto else None,
                                                          load_node, output_node)
@@ -539,52 +475,3 @@ class ReframeBodySimulator:
         finally:
             self._rates_needed = needed
         self._last_rates = None          # then computed with the state's own inputs, as in an uninterrupted run
-
-
-def _info(names, unit, text):
-    return {n: (unit, f"{text}, {n.rsplit('_', 1)[-1]}") for n in names}
-
-
-#: name -> (unit, description) of every FMU variable.
-VARIABLE_INFO: dict[str, tuple[str, str]] = {
-    "model": ("", "paper_plate | beam:<scene> (free-free bent rod) | path to a .npz structure file"),
-    "scheme": ("", "exponential (default: exact in the modes' linear part, no RK4 stability limit) | consistent (RK4) | "
-                   "paper (the printed scheme, first order)"),
-    "n_flexible_modes": ("", "retained flexible modes; 0 = a rigid body; -1 = choose: the modes up to f_max and more "
-                             "until the estimated dynamic truncation error of the load and output points is within "
-                             "tolerance, plus a static correction of the load point if needed"),
-    "f_max": ("Hz", "n_flexible_modes = -1: highest input frequency of interest (every flexible mode up to it is kept)"),
-    "tolerance": ("", "n_flexible_modes = -1: allowed relative truncation error of the load and output points' "
-                      "deflection (dynamic, and static before residual-flexibility vectors are added); scheme "
-                      "exponential with internal_step = 0: rotation per internal step <= 0.5 tolerance^(1/4) rad; "
-                      "1e-8 <= tolerance < 1"),
-    "damping_ratio": ("", "modal damping ratio of every flexible mode, 0 <= zeta < 1"),
-    "internal_step": ("s", "longest internal step; 0 = automatic (RK4 schemes: 90% of the stability limit, "
-                           "sub-stepping a longer communication step; exponential: by accuracy); a given step is at "
-                           "most the RK4 stability limit and at least 1e-05 s / max_internal_steps"),
-    **_info(("load_point_x", "load_point_y", "load_point_z"), "m", "load point, undeformed body coordinates"),
-    **_info(("output_point_x", "output_point_y", "output_point_z"), "m", "output point, undeformed body coordinates"),
-    "force_follows_body": ("", "false: F, M in the global frame; true: in the body frame"),
-    **_info(("v0_x", "v0_y", "v0_z"), "m/s", "initial velocity of the centre of mass, global"),
-    **_info(("omega0_1", "omega0_2", "omega0_3"), "rad/s", "initial angular velocity, body frame; |omega0| <= "
-            "max_internal_steps x 0.5 tolerance^(1/4) / 1e-05 s (8.9e8 rad/s by default)"),
-    "max_internal_steps": ("", "most internal steps per communication step, 1 .. 1e8 (default 100000), counted "
-                               "before stepping: a longer communication step is rejected (fmi2Discard: take a smaller "
-                               "one) while a 1e-05 s step would fit, else the input or parameter that needs so many "
-                               "is refused (fmi2Error)"),
-    **_info(("F_x", "F_y", "F_z"), "N", "force at the load point (global unless force_follows_body)"),
-    **_info(("M_x", "M_y", "M_z"), "N.m", "moment at the load point (6-DOF models only)"),
-    **_info(OUTPUT_NAMES[0:3], "m", "frame origin position, global"),
-    **_info(OUTPUT_NAMES[3:6], "m/s", "frame origin velocity (rigid with the dummy body), global"),
-    **_info(OUTPUT_NAMES[6:10], "", "orientation quaternion body -> global, scalar first"),
-    **_info(OUTPUT_NAMES[10:13], "rad/s", "angular velocity, body frame"),
-    **_info(OUTPUT_NAMES[13:16], "rad/s2", "angular acceleration, body frame"),
-    **_info(OUTPUT_NAMES[16:19], "m", "centre of mass of the dummy rigid body, global (the deformed body's "
-                                      "differs by second-order elastic terms on beam models)"),
-    **_info(OUTPUT_NAMES[19:22], "m/s", "centre of mass velocity, global"),
-    **_info(OUTPUT_NAMES[22:25], "m", "output point position, global, full motion"),
-    **_info(OUTPUT_NAMES[25:28], "m/s", "output point velocity, global, full motion"),
-    **_info(OUTPUT_NAMES[28:31], "m/s2", "output point acceleration, global, full motion"),
-    **_info(OUTPUT_NAMES[31:34], "m/s2", "output point acceleration, embedded rigid part, global"),
-    "max_elastic_displacement": ("m", "largest elastic nodal displacement"),
-}
