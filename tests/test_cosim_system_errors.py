@@ -315,3 +315,30 @@ def test_an_output_that_cannot_be_written_is_refused_before_the_run(option, tmp_
         assert cli.main(["cosim", str(EXAMPLE), "--t-end", "1e6", "--master", "library", option, str(bad)]) == 2
         err = _one_error_line(capsys)
         assert f"error: {option[2:]}: " in err and repr(str(bad)) in err, err
+
+
+_MODEL_DESCRIPTION = """<?xml version="1.0"?>
+<fmiModelDescription fmiVersion="2.0" modelName="m" guid="{{x}}">
+  {interface}
+  <ModelVariables>
+    <ScalarVariable name="y" valueReference="0" causality="output"><Real/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure><Outputs><Unknown index="1"/></Outputs></ModelStructure>
+</fmiModelDescription>
+"""
+
+
+@pytest.mark.parametrize("interface, words", [
+    ('<ModelExchange modelIdentifier="m"/>', ["no co-simulation interface", "FMI 2.0 co-simulation"]),
+    ('<CoSimulation modelIdentifier="m"/><Bogus/>', ["not an FMU", "modelDescription.xml"]),
+], ids=["model exchange only", "invalid modelDescription"])
+def test_an_fmu_the_master_cannot_run_is_named_with_its_line(interface, words, tmp_path, capsys):
+    with zipfile.ZipFile(tmp_path / "PTO.fmu", "w") as zf:
+        zf.writestr("modelDescription.xml", _MODEL_DESCRIPTION.format(interface=interface))
+    path = tmp_path / "OspSystemStructure.xml"
+    path.write_text(SMALL.format(source="PTO.fmu"))
+    assert _cosim(path, master="fmpy") == 2
+    err = _one_error_line(capsys)       # fmpy's validation report spans lines: one line here
+    assert f"{path}:5 <Simulator name=\"pto\">" in err, err
+    for word in words:
+        assert word in err, (word, err)

@@ -21,6 +21,7 @@ from flexfmu.fmi.registry import FMUS
 LIBRARY_MODULES = {spec.name: (spec.module, spec.config, spec.simulator) for spec in FMUS}
 _PYTHON_TYPES = {bool: "Boolean", int: "Integer", float: "Real", str: "String"}
 _BUILD_HINT = "an FMU file (build them with: flexfmu build, or pass --fmu-dir)"
+_REPORT = 400
 
 
 def where(spec: SimulatorSpec) -> str:
@@ -40,11 +41,18 @@ def model_description(spec: SimulatorSpec):
 
     source = Path(spec.source)
     require(source.is_file(), where(spec), f"FMU {str(source)!r} not found", _BUILD_HINT)
+    allowed = "an FMI 2.0 co-simulation FMU: a zip archive with a valid modelDescription.xml"
     try:
-        return read_model_description(str(source))
+        md = read_model_description(str(source))
     except Exception as exc:   # noqa: BLE001 - fmpy raises zip, XML, KeyError and bare Exceptions alike
-        raise ParameterError(where(spec), f"{str(source)!r} is not an FMU ({type(exc).__name__}: {exc})",
-                             "an FMI 2.0 co-simulation FMU: a zip archive with modelDescription.xml") from None
+        # fmpy's validation report spans lines: one line, at most _REPORT characters of it
+        report = " ".join(f"{type(exc).__name__}: {exc}".split())
+        report = report if len(report) <= _REPORT else report[:_REPORT] + " ..."
+        raise ParameterError(where(spec), f"{str(source)!r} is not an FMU ({report})", allowed) from None
+    require(md.fmiVersion == "2.0" and md.coSimulation is not None, where(spec),
+            f"{str(source)!r} is an FMI {md.fmiVersion} FMU with "
+            f"{'no co-simulation interface' if md.coSimulation is None else 'a co-simulation interface'}", allowed)
+    return md
 
 
 @dataclass(frozen=True)
