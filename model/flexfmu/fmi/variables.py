@@ -1,7 +1,7 @@
 """An FMU's variables, from its spec (flexfmu.fmi.slave.FmuModel), in value-reference order: the parameters (the
 config dataclass's fields), the inputs (INPUT_NAMES), the outputs (OUTPUT_NAMES), each with its type, unit and
 description.  Both the modelDescription.xml (through pythonfmu, :func:`declare`) and the model file the runtime
-reads (flexfmu.fmi.native.model_entries, from :func:`table`) come from here, so their value references agree.
+reads (flexfmu.fmi.model_file.entries, from :func:`table`) come from here, so their value references agree.
 """
 from __future__ import annotations
 

@@ -1,0 +1,369 @@
+"""How a native FMU is made from a NativeSource (flexfmu.fmi.native says what one is and makes them from the registry
+and from exported bodies): its modelDescription, its model file's entries, its binary compiled from the C sources,
+its sources/ and documentation, and the archive.
+
+Layout of a native FMU:
+
+    modelDescription.xml          needsExecutionTool="false", SourceFiles listed
+    binaries/linux64/<id>.so      compiled here with the system C compiler (flexfmu.native.compiler)
+    resources/flexfmu_model.bin   the model (flexfmu.fmi.model_file)
+    resources/flexfmu_build.json  flexfmu version, runtime "native", model, kind, GUID, the parameters frozen
+    sources/                      every C source and header of the binary, fmi2 headers, CMakeLists.txt, README.md
+    documentation/index.html      the model, the frozen parameters, the variables, how to rebuild
+
+The model file's format and the entries every kind has: flexfmu.fmi.model_file; the LTI kind's entries:
+csrc/native_lti.c's header comment; the reframe kind's: flexfmu.native.reframe.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import html
+import json
+import math
+import shlex
+import tempfile
+import threading
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from flexfmu.errors import ParameterError
+from flexfmu.fmi import archive, model_file
+from flexfmu.fmi.model_file import FORMAT_VERSION, MODEL_FILE, write_model_file
+
+HERE = Path(__file__).resolve().parent
+FMI_CSRC = HERE / "csrc"
+BUILD_INFO = "flexfmu_build.json"
+#: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
+_FRONT = ("native_front.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
+_FRONT_HEADERS = ("flexfmu_fmi2.c", "flexfmu_bridge.h", "native_kind.h", "native_platform.h")
+_KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
+_KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
+_FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+
+
+# ---------------------------------------------------------------------------------------------- what is built
+@dataclass
+class NativeSource:
+    """Everything a native FMU is made of: its name and description, the FMU spec its modelDescription comes from
+    (flexfmu.fmi.registry.FmuSpec or flexfmu.fmi.body_fmu.ExportedSpec), the parameter values it is built with,
+    which of them stay settable (``runtime``), the kind's model (an flexfmu.native.lti.LtiModel), the
+    DefaultExperiment, the messages logged at initialisation, the divergence limit, the rebuild command, and the
+    documentation page."""
+
+    name: str
+    description: str
+    spec: object
+    values: dict
+    runtime: tuple
+    lti: object
+    experiment: dict
+    kind: str = "lti"
+    #: the kind's entries for kinds other than "lti": a function (inputs, outputs, params) -> {name: value}
+    kind_entries: object = None
+    messages: list = field(default_factory=list)
+    divergence_limit: float = math.inf
+    divergence_allowed: str = "inputs within the model's range"
+    rebuild: str = ""
+    rebuild_settings: dict = field(default_factory=dict)
+    log_split: bool = False
+    documentation: str = ""
+    info: dict = field(default_factory=dict)
+
+
+# ---------------------------------------------------------------------------------------------- modelDescription
+def _slave(source: NativeSource, resources: Path):
+    """A pythonfmu slave declaring the source's spec's variables (flexfmu.fmi.variables), its parameters at the
+    build values: what writes the modelDescription, as for the Python FMU of the same spec."""
+    from pythonfmu import Fmi2Slave
+
+    from flexfmu.fmi.variables import declare
+
+    def __init__(self, **kwargs):
+        Fmi2Slave.__init__(self, **kwargs)
+        declare(self, source.spec, source.values)
+
+    cls = type(source.name, (Fmi2Slave,), {"author": "flexfmu", "description": source.description,
+                                           "__init__": __init__, "do_step": lambda self, t, h: True})
+    return cls(instance_name="native-build", resources=str(resources))
+
+
+def model_description(source: NativeSource, guid: str) -> bytes:
+    """modelDescription.xml: pythonfmu's of the source's variables, completed as the Python FMUs' (flexfmu.fmi.build),
+    with the native runtime's capabilities and source files."""
+    from flexfmu import __version__
+    from flexfmu.fmi.build import _complete_model_description
+
+    with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
+        slave = _slave(source, Path(tmp))
+        slave.guid = guid
+        root = slave.to_xml()
+    cosim = root.find("CoSimulation")
+    cosim.set("canGetAndSetFMUstate", "true")
+    cosim.set("canSerializeFMUstate", "true")
+    cosim.set("needsExecutionTool", "false")
+    text = ET.tostring(root, encoding="unicode")
+    completed = _complete_model_description(text, source.spec.variable_info, source.experiment)
+    root = ET.fromstring(completed)
+    root.set("generationTool", f"flexfmu {__version__} (native runtime)")
+    cosim = root.find("CoSimulation")
+    files = ET.SubElement(cosim, "SourceFiles")
+    for name in (*_FRONT, *_KERNELS):
+        ET.SubElement(files, "File", name=name)
+    ET.indent(root, "\t")
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+# ---------------------------------------------------------------------------------------------- model entries
+def model_entries(source: NativeSource, guid: str) -> dict:
+    """The model file's entries (flexfmu.fmi.model_file; the LTI kind's: csrc/native_lti.c)."""
+    entries, inputs, outputs, params = model_file.entries(
+        source.spec, kind=source.kind, name=source.name, guid=guid, values=source.values, runtime=source.runtime,
+        messages=source.messages, divergence_limit=source.divergence_limit,
+        divergence_allowed=source.divergence_allowed, rebuild=source.rebuild, rebuild_settings=source.rebuild_settings)
+    if source.kind == "lti":
+        entries.update(_lti_entries(source.lti, inputs, outputs, params, source))
+    else:
+        entries.update(source.kind_entries(inputs, outputs, params))
+    return entries
+
+
+def _lti_entries(lti, inputs: list, outputs: list, params: list, source: NativeSource) -> dict:
+    """The LTI kind's entries: the kernel's arrays and the maps from the FMU's variables (csrc/native_lti.c)."""
+    position = {name: k for k, name in enumerate(inputs)}
+    try:
+        u_from = [position[lti.input_names[k]] for k in lti.u_from_input]
+        p_from = [position[lti.input_names[k]] if k >= 0 else -1 for k in lti.p_from_input]
+        y_to = [outputs.index(name) for name in lti.output_names]
+    except (KeyError, ValueError) as exc:
+        raise ParameterError("lti", f"the model names a variable the FMU does not have ({exc})") from None
+    if sorted(y_to) != list(range(len(outputs))):
+        raise ParameterError("lti", "its outputs are not the FMU's", ", ".join(outputs))
+    p_param = [params.index(name) if (p_from[k] < 0 and name in params) else -1
+               for k, name in enumerate(lti.param_names)]
+    role = lambda name: params.index(name) if name in params else -1     # noqa: E731
+    return {
+        "lti.A": lti.A, "lti.B": lti.B, "lti.b": lti.b, "lti.Cx": lti.Cx, "lti.Cu": lti.Cu, "lti.y0": lti.y0,
+        "lti.quad_row": lti.quad_row, "lti.quad_i": lti.quad_i, "lti.quad_j": lti.quad_j,
+        "lti.quad_value": lti.quad_value,
+        "lti.u_from_input": np.array(u_from, np.int32), "lti.p_from_input": np.array(p_from, np.int32),
+        "lti.p_param": np.array(p_param, np.int32), "lti.p_start": lti.p_start,
+        "lti.y_to_output": np.array(y_to, np.int32),
+        "lti.internal_step": np.int32(role("internal_step")),
+        "lti.max_internal_steps": np.int32(role("max_internal_steps") if "internal_step" in params else -1),
+        "lti.log_split": np.int32(1 if source.log_split else 0),
+    }
+
+
+# ---------------------------------------------------------------------------------------------- the binary
+_COMPILED: dict[str, bytes] = {}
+_COMPILE_LOCK = threading.Lock()
+
+
+def _fmi2_headers() -> Path:
+    from flexfmu.fmi.runtime import _fmi2_headers as headers
+    return headers()
+
+
+def source_files() -> dict[str, Path]:
+    """sources/ of a native FMU (LTI kind): file name -> path."""
+    from flexfmu.native.compiler import CSRC
+    files = {name: FMI_CSRC / name for name in (*_FRONT, *_FRONT_HEADERS)}
+    files.update({name: CSRC / name for name in (*_KERNELS, *_KERNEL_HEADERS)})
+    files.update({name: _fmi2_headers() / name for name in _FMI2_HEADERS})
+    return files
+
+
+def compile_binary() -> bytes:
+    """The shared library of the LTI kind, compiled once per process and source digest with the system C compiler
+    (flexfmu.native.compiler: IEEE flags, no fast-math)."""
+    import platform
+    import sys
+
+    from flexfmu.fmi.runtime import RuntimeBuildError
+    from flexfmu.native.compiler import KERNEL_FLAGS, compile_shared
+    if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
+        raise RuntimeBuildError(f"native FMUs are built with a linux64 binary, not on {sys.platform}/"
+                                f"{platform.machine()}: build the FMU on Linux x86-64, then rebuild its binary for "
+                                "this platform from its sources/ (docs/fmu.md, 'Native runtime')")
+    files = source_files()
+    digest = hashlib.sha256(" ".join(KERNEL_FLAGS).encode())
+    for name in sorted(files):
+        digest.update(name.encode() + files[name].read_bytes())
+    key = digest.hexdigest()
+    with _COMPILE_LOCK:
+        if key not in _COMPILED:
+            with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
+                out = compile_shared([files[n] for n in (*_FRONT, *_KERNELS)], Path(tmp) / "fmu.so",
+                                     include_dirs=(FMI_CSRC, _fmi2_headers()),
+                                     extra_flags=("-fvisibility=hidden", "-Wno-format-truncation"),
+                                     libraries=("m", "pthread", "dl"))
+                _COMPILED[key] = out.read_bytes()
+        return _COMPILED[key]
+
+
+CMAKE = """# Rebuild the binary of this native FMU for your platform (README.md beside this file):
+#   cmake -S sources -B build -DCMAKE_BUILD_TYPE=Release
+#   cmake --build build --config Release
+# run in the unzipped FMU's folder: the library lands in binaries/<platform>/ (win64, darwin64, linux64).
+cmake_minimum_required(VERSION 3.13)
+project(flexfmu_native_fmu C)
+set(MODEL_IDENTIFIER "{name}")
+
+add_library(${{MODEL_IDENTIFIER}} SHARED {sources})
+set_target_properties(${{MODEL_IDENTIFIER}} PROPERTIES PREFIX "" C_STANDARD 99 C_VISIBILITY_PRESET hidden)
+target_include_directories(${{MODEL_IDENTIFIER}} PRIVATE ${{CMAKE_CURRENT_SOURCE_DIR}})
+if(MSVC)
+  # IEEE arithmetic as written (no contraction into FMA): the numbers of the Linux build
+  target_compile_definitions(${{MODEL_IDENTIFIER}} PRIVATE _CRT_SECURE_NO_WARNINGS)
+  target_compile_options(${{MODEL_IDENTIFIER}} PRIVATE /fp:precise)
+else()
+  target_compile_options(${{MODEL_IDENTIFIER}} PRIVATE -ffp-contract=off -fno-fast-math)
+  find_package(Threads REQUIRED)
+  target_link_libraries(${{MODEL_IDENTIFIER}} PRIVATE m Threads::Threads ${{CMAKE_DL_LIBS}})
+endif()
+
+if(WIN32)
+  if(CMAKE_SIZEOF_VOID_P EQUAL 8)
+    set(FMI_PLATFORM win64)
+  else()
+    set(FMI_PLATFORM win32)
+  endif()
+elseif(APPLE)
+  set(FMI_PLATFORM darwin64)
+else()
+  set(FMI_PLATFORM linux64)
+endif()
+set(FMU_BINARIES "${{CMAKE_CURRENT_SOURCE_DIR}}/../binaries/${{FMI_PLATFORM}}")
+# $<1:...>: no per-configuration subfolder with multi-configuration generators (Visual Studio, Xcode)
+set_target_properties(${{MODEL_IDENTIFIER}} PROPERTIES
+  RUNTIME_OUTPUT_DIRECTORY "$<1:${{FMU_BINARIES}}>"
+  LIBRARY_OUTPUT_DIRECTORY "$<1:${{FMU_BINARIES}}>")
+"""
+
+README = """# Sources of {name}.fmu (flexfmu native runtime)
+
+This FMU's binary is plain C99 (libc, libm, pthreads on POSIX; the Windows API on Windows): no Python. The
+model is data (`resources/flexfmu_model.bin`), so the same sources build every native flexfmu FMU of this kind.
+
+| file | what |
+|---|---|
+| `native_front.c` | the FMI 2.0 front (`flexfmu_fmi2.c`) in its native variant (`FLEXFMU_NATIVE`) |
+| `flexfmu_fmi2.c`, `flexfmu_bridge.h` | the front: entry points, call-sequence table, FMU-state header, logging |
+| `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
+| `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
+| `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
+| `step_policy.c`, `step_policy.h` | both kinds: a communication step's internal steps, refused beyond max_internal_steps |
+| `native_platform.h` | Windows: locks and the library's own path |
+| `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
+
+## Rebuild for another platform
+
+Unzip the FMU, then in its folder (CMake >= 3.13 and a C compiler):
+
+    cmake -S sources -B build -DCMAKE_BUILD_TYPE=Release
+    cmake --build build --config Release
+
+The library is written to `binaries/<platform>/` (`win64/{name}.dll`, `darwin64/{name}.dylib`,
+`linux64/{name}.so`). Zip the folder's content again (modelDescription.xml at the top) as `{name}.fmu`.
+
+- **Windows (MSVC)**: a "x64 Native Tools Command Prompt for VS" (Visual Studio 2015 or later: C99 designated
+  initialisers, `snprintf`), then the two commands above (the Visual Studio generator is the default).
+- **macOS**: `xcode-select --install` (clang) and CMake (e.g. `brew install cmake`); on Apple silicon add
+  `-DCMAKE_OSX_ARCHITECTURES="arm64;x86_64"` for one library that runs on both (FMI 2.0 names both darwin64).
+- **Linux**: gcc or clang; the library links libc, libm, libpthread and libdl only.
+
+Without CMake: compile `native_front.c flexfmu_native.c native_lti.c native_reframe.c lti_kernels.c
+reframe_kernels.c step_policy.c` into one shared library
+named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
+symbol visibility (only the fmi2* functions are exported) and libm, e.g.
+`cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_native.c
+native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
+
+Built with flexfmu {version}; model-file format version {format_version}.
+"""
+
+
+# ---------------------------------------------------------------------------------------------- documentation
+def _documentation(source: NativeSource, frozen: dict) -> str:
+    """documentation/index.html: the model, the runtime, the frozen and runtime parameters, the variables."""
+    info = source.spec.variable_info
+    rows = "\n".join(f"<tr><td><code>{html.escape(v)}</code></td><td>{html.escape(info[v][0])}</td>"
+                     f"<td>{html.escape(info[v][1])}</td></tr>" for v in info)
+    fixed = "\n".join(f"<tr><td><code>{html.escape(k)}</code></td><td><code>{html.escape(repr(v))}</code></td></tr>"
+                      for k, v in frozen.items()) or "<tr><td colspan=2>none</td></tr>"
+    runtime = ", ".join(f"<code>{html.escape(p.name)}</code>" for p in source.runtime) or "none"
+    extra = source.documentation or ""
+    return f"""<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>{html.escape(source.name)}</title></head>
+<body>
+<h1>{html.escape(source.name)}</h1>
+<p>{html.escape(source.description)}.</p>
+<p>A <b>native</b> flexfmu FMU (FMI 2.0 co-simulation): its binary is C only and needs no Python. The model is
+<code>resources/{MODEL_FILE}</code>; <code>sources/</code> holds every C file of the binary and a CMakeLists.txt to
+rebuild it for Windows or macOS (<code>sources/README.md</code>).</p>
+<h2>Parameters fixed at build</h2>
+<p>Another value than these is refused (fmi2Error, naming the parameter); rebuild with
+<code>{html.escape(_rebuild_text(source))}</code>.</p>
+<table border="1" cellspacing="0" cellpadding="3"><tr><th>parameter</th><th>value</th></tr>
+{fixed}
+</table>
+<p>Settable until fmi2ExitInitializationMode: {runtime}.</p>
+{extra}
+<h2>Variables</h2>
+<table border="1" cellspacing="0" cellpadding="3">
+<tr><th>name</th><th>unit</th><th>description</th></tr>
+{rows}
+</table>
+</body></html>
+"""
+
+
+def _rebuild_text(source: NativeSource) -> str:
+    return " ".join([source.rebuild, *(f"--set {k}={shlex.quote(v)}" for k, v in source.rebuild_settings.items()),
+                     "--set NAME=VALUE"])
+
+
+# ---------------------------------------------------------------------------------------------- the FMU
+def build_native_fmu(source: NativeSource, target) -> Path:
+    """Write the native FMU of ``source`` at ``target`` (NAME.fmu) and check it with fmpy's validation."""
+    from fmpy.validation import validate_fmu
+
+    from flexfmu import __version__
+    from flexfmu.fmi.runtime import RuntimeBuildError
+
+    target = Path(target)
+    guid = "{" + str(uuid.uuid4()) + "}"
+    runtime_names = {p.name for p in source.runtime}
+    with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
+        description = model_description(source, guid)
+        entries = model_entries(source, guid)
+        built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
+        frozen = {k: v for k, v in built.items() if k not in runtime_names}
+        model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)
+        binary = compile_binary()
+        info = {"version": __version__, "runtime": "native", "model": source.name, "kind": source.kind, "guid": guid,
+                "format_version": FORMAT_VERSION, "parameters_fixed": frozen,
+                "runtime_parameters": sorted(runtime_names), **source.info}
+        members = {
+            "modelDescription.xml": description,
+            f"binaries/linux64/{source.name}.so": binary,
+            f"resources/{MODEL_FILE}": model_file.read_bytes(),
+            f"resources/{BUILD_INFO}": json.dumps(info, indent=1, default=str).encode(),
+            "documentation/index.html": _documentation(source, frozen).encode(),
+            "sources/CMakeLists.txt": CMAKE.format(name=source.name, sources=" ".join((*_FRONT, *_KERNELS))).encode(),
+            "sources/README.md": README.format(name=source.name, version=__version__,
+                                               format_version=FORMAT_VERSION).encode(),
+        }
+        for name, path in source_files().items():
+            members[f"sources/{name}"] = path.read_bytes()
+        target.parent.mkdir(parents=True, exist_ok=True)
+        archive.write_members(target, members)
+    problems = validate_fmu(str(target))
+    if problems:
+        raise RuntimeBuildError(f"{target}: fmpy validate found problems:\n" + "\n".join(problems))
+    return target
