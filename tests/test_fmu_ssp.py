@@ -226,3 +226,19 @@ def test_cli_set_runs_and_rejects_unknown_names(kind, ssp_file, fmu_dir, tmp_pat
         assert cosim(bad) == 2
         err = capsys.readouterr().err
         assert expect in err and err.count("\n") == 1, err
+
+
+def test_ecos_stops_on_a_failed_initialisation_instead_of_recording_zeros(ssp_file):
+    """ecos reports a failed FMU call only by its return value: a PTO whose damping its FMU refuses at
+    initialisation ends the run with the failure, never with the zero outputs of models that did not run."""
+    from flexfmu.cosim.masters import run_ecos
+    from flexfmu.errors import CosimulationError, ParameterError
+    found = ecos_binaries()
+    if isinstance(found, str):
+        pytest.skip(f"ecos not available: {found}")
+    system = load_system(ssp_file).with_values({**QUICK, "pto": {"damping": -1.0}})
+    try:
+        with pytest.raises(CosimulationError, match=r"pto: exitInitializationMode failed: damping: got -1\.0"):
+            run_ecos(system, 0.01)
+    except ParameterError as exc:               # ecospy's library cannot be loaded in this process
+        pytest.skip(str(exc))

@@ -5,6 +5,7 @@ their run length is checked the same way first (flexfmu.cosim.checks).
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import sys
 import tempfile
@@ -18,7 +19,7 @@ from flexfmu.cosim.results import CosimResult
 from flexfmu.cosim.slaves import model_description
 from flexfmu.cosim.ssp import PARAMETER_SET, write_ssp
 from flexfmu.cosim.system import System, write_osp
-from flexfmu.errors import ParameterError, require
+from flexfmu.errors import CosimulationError, ParameterError, require
 
 
 def _is_ssp(system: System) -> bool:
@@ -104,17 +105,39 @@ def _load_ecospy():
     return EcosSimulation
 
 
+def _initialise_each(system: System) -> None:
+    """Each FMU instantiated and initialised once with its start values (through fmpy), freed again: ecos goes on
+    after an FMU refuses its initialisation (its init still returns true) and records the zeros of a model that
+    never ran, so a refusal is raised here first, with the FMU's message."""
+    from flexfmu.cosim.slaves import FmuSlave
+    for spec in system.simulators:
+        slave = FmuSlave(spec)
+        try:
+            slave.initialize(system.start_time)
+        finally:
+            with contextlib.suppress(Exception):        # an instance whose initialisation failed cannot terminate
+                slave.free()
+
+
+def _ecos_error() -> str:
+    from ecospy.lib import EcosLib
+    return EcosLib.get_last_error() or "no message (the FMUs' own log says why)"
+
+
 def run_ecos(system: System, t_end: float, step: float | None = None, progress: bool = False,
              label: str = "flexfmu cosim (ecos)", max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
     """The ecos engine (ecospy's C library, the FMUs in this process) on the system written as an SSP
     archive into a temporary folder (its fixed-step algorithm: Jacobi; the outputs after
     initialisation are passed to the inputs before the first step; time accumulated, t += h).
-    Start values are the SSP's parameter set "start"."""
+    Start values are the SSP's parameter set "start".  ecos goes on after an FMU call fails (its init and step
+    still succeed): each FMU is initialised once beforehand, so that a refused start value is raised; a step an
+    FMU refuses during the run cannot be seen from here (run the fmpy master to see it)."""
     h = float(system.base_step if step is None else step)
     n = n_steps(t_end, system.start_time, h)
     require(system.start_time == 0.0, "StartTime", f"got {system.start_time!r}", "0 for ecos")
     check_result_memory(n, check_system(system, "fmu").n_outputs, h, max_result_bytes)
     EcosSimulation = _load_ecospy()
+    _initialise_each(system)
     order = [s.name for s in system.simulators]
     outputs = {s.name: [v.name for v in model_description(s).modelVariables
                         if v.causality == "output"] for s in system.simulators}
@@ -124,12 +147,18 @@ def run_ecos(system: System, t_end: float, step: float | None = None, progress: 
         ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
         sim = EcosSimulation(ssp_path=str(ssp), step_size=h)
         try:
-            sim.init(parameter_set=PARAMETER_SET)
+            # ecos reports a failed FMU call only by its return value (and its last error): a failure must stop
+            # the run here, or the outputs read after it are the zeros of models that never ran
+            if not sim.init(parameter_set=PARAMETER_SET):
+                raise CosimulationError(f"ecos: initialisation failed: {_ecos_error()}")
             get = sim.get_real
             rows[0] = [get(i) for i in ids]
             with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
                 for k in range(n):
-                    sim.step()
+                    t = sim.step()
+                    if not t > system.start_time + (k + 0.5) * h:      # the step did not happen
+                        raise CosimulationError(f"ecos: step {k + 1} (t = {system.start_time + k * h:.6g} s) "
+                                                f"failed: {_ecos_error()}")
                     rows[k + 1] = [get(i) for i in ids]
                     bar.update_to(k + 1, system.start_time + (k + 1) * h)
             sim.terminate()
