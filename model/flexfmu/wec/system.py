@@ -22,7 +22,7 @@ from flexfmu.errors import FlexfmuError, require
 from flexfmu.wec.harvester import HARVESTER_POINT_S, harvester_values, point_position
 from flexfmu.wec.hydrostatics import RADIATION_MEMORY_TERM
 from flexfmu.wec.roles import CATEGORIES, WORK_IN, Recorded, mean_power, roster, summary_line
-from flexfmu.wec.sweeps import MAX_STEEPNESS, PowerMatrix, run_tasks, write_table
+from flexfmu.wec.sweeps import MAX_STEEPNESS, PowerMatrix, check_run_count, check_runs, run_tasks, write_table
 
 # the system's names, with those of the harvester, hydrostatics and the sweeps' machinery that callers have
 # always imported from here
@@ -259,6 +259,8 @@ def power_matrix(system_file, heights, periods, seeds=(1, 2, 3), t_end: float = 
     error); a cell whose seeds all failed stays empty."""
     heights = np.asarray(heights, float).ravel()
     periods = np.asarray(periods, float).ravel()
+    # refused before the seeds are made (a range of 1e9 seeds is cheap, its tuple is not)
+    check_run_count(heights.size * periods.size * len(seeds), "hs, tp, seeds")
     seeds = tuple(int(s) for s in seeds)
     require(heights.size >= 1 and bool(np.all(np.isfinite(heights) & (heights > 0))), "hs",
             f"got {heights.tolist()}", "one or more wave heights > 0 m")
@@ -268,7 +270,10 @@ def power_matrix(system_file, heights, periods, seeds=(1, 2, 3), t_end: float = 
             "one or more distinct seeds >= 0")
     require(boundary in HARVESTER_POINT_S, "boundary", f"got {boundary!r}", " | ".join(HARVESTER_POINT_S))
     require(max_steepness > 0, "max-steepness", f"got {max_steepness!r}", "> 0")
-    g = roster(load_system(system_file, fmu_dir=fmu_dir)).one("wave").config.g
+    # what every run would refuse, refused before the first (the CLI and library callers alike)
+    loaded = load_system(system_file, fmu_dir=fmu_dir)
+    check_runs(loaded, t_end, step, backend)
+    g = roster(loaded).one("wave").config.g
     cells = [(i, j) for i, hs in enumerate(heights) for j, tp in enumerate(periods)
              if 2 * math.pi * hs / (g * tp * tp) <= max_steepness * (1 + 1e-12)]
     cases = [Case(boundary, "jonswap", float(heights[i]), float(periods[j]), s) for i, j in cells for s in seeds]
