@@ -405,7 +405,9 @@ class ReframeBodySimulator:
             speed, spin = math.hypot(*snap.com_velocity.tolist()), math.hypot(*snap.omega.tolist())
         except (FlexfmuError, ArithmeticError, ValueError):
             speed = spin = math.nan
-        if not (speed == speed and spin == spin):          # NaN: rank the initial conditions instead
+        # at the start, or NaN: rank the initial conditions themselves (a start that overflows makes the snapshot's
+        # spin infinite from a huge v0 alone, which would blame an omega0 of 0)
+        if self.state.t == 0.0 or not (speed == speed and spin == spin):
             speed, spin = math.hypot(c.v0_x, c.v0_y, c.v0_z), math.hypot(c.omega0_1, c.omega0_2, c.omega0_3)
         if speed or spin:
             scores["velocity"] = speed * h

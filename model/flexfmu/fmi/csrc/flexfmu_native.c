@@ -752,6 +752,22 @@ static void bad_outputs(const Slave *s, const double *y, const unsigned char *wh
     }
 }
 
+/* The culprit j a kind named (NativeKind.culprit): an input's or a runtime parameter's name, value and what is
+   allowed of it; 0 when j names none. */
+static int culprit_of(const Slave *s, int j, const char **name, double *value, const char **allowed) {
+    const Model *m = &s->m;
+    if (j >= 0 && (size_t)j < m->layout.n_inputs) {
+        *name = m->input_names[j], *value = s->now.held[j], *allowed = "inputs within the model's range";
+        return 1;
+    }
+    if (j >= 0 && (size_t)j - m->layout.n_inputs < m->layout.n_params) {
+        size_t k = (size_t)j - m->layout.n_inputs;
+        *name = m->param_names[k], *value = s->params[k], *allowed = "parameters within the model's range";
+        return 1;
+    }
+    return 0;
+}
+
 /* One computation by the kind of the outputs `which` marks into y (which then marks what it wrote; a refusal when
    one of them is not finite). */
 static int compute_outputs(Slave *s, double *y, unsigned char *which) {
@@ -766,12 +782,12 @@ static int compute_outputs(Slave *s, double *y, unsigned char *which) {
     if (status == NATIVE_NOT_FINITE) {
         char names[512], t[64];
         bad_outputs(s, y, which, names, sizeof names);
-        int j = m->kind->culprit(s->sim, 1, now->x, now->held, 1e300);
-        if (j >= 0)
+        const char *name, *allowed;
+        double value;
+        if (culprit_of(s, m->kind->culprit(s->sim, 1, now->x, now->held, 1e300), &name, &value, &allowed))
             return refuse(s, BRIDGE_ERROR,
-                          "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: "
-                          "inputs within the model's range",
-                          m->input_names[j], now->held[j], names, now->start_time + now->time);
+                          "outputs: %s: %.6g makes %s overflow (not finite) at t = %.6g s; allowed: %s", name, value,
+                          names, now->start_time + now->time, allowed);
         time_text(now->start_time + now->time, t, sizeof t);
         return refuse(s, BRIDGE_ERROR,
                       "%s: not finite at t = %s s (the inputs or parameters drive the model beyond "
@@ -952,23 +968,24 @@ static int do_step(void *slave, double current_time, double h) {
        none, any input: the largest) */
     double threshold = isfinite(m->divergence_limit) ? m->divergence_limit : 0.0;
     if (status == NATIVE_NOT_FINITE) {
-        int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
-        if (j >= 0)
-            return refuse(s, BRIDGE_ERROR,
-                          "%s: %.6g makes the state overflow (not finite) at t = %.6g s: the state "
-                          "diverged; allowed: inputs within the model's range",
-                          m->input_names[j], now->held[j], t);
+        const char *name, *allowed;
+        double value;
+        if (culprit_of(s, m->kind->culprit(s->sim, 0, now->x, now->held, threshold), &name, &value, &allowed))
+            return refuse(
+                s, BRIDGE_ERROR,
+                "%s: %.6g makes the state overflow (not finite) at t = %.6g s: the state diverged; allowed: %s", name,
+                value, t, allowed);
         return refuse(s, BRIDGE_ERROR, "state: the state overflows (not finite) at t = %.6g s: the state diverged", t);
     }
     if (status != BRIDGE_OK) return refuse(s, status, "%s", r.message);
     if (size > m->divergence_limit) {
-        int j = m->kind->culprit(s->sim, 0, now->x, now->held, threshold);
-        if (j >= 0)
+        const char *name, *allowed;
+        double value;
+        if (culprit_of(s, m->kind->culprit(s->sim, 0, now->x, now->held, threshold), &name, &value, &allowed))
             return refuse(s, BRIDGE_ERROR,
                           "%s: diverged at t = %.6g s (state norm %.3g): %s = %.6g alone moves it "
                           "beyond %g (allowed: %s)",
-                          m->input_names[j], t, size, m->input_names[j], now->held[j], m->divergence_limit,
-                          m->divergence_allowed);
+                          name, t, size, name, value, m->divergence_limit, m->divergence_allowed);
         return refuse(s, BRIDGE_ERROR, "state: diverged at t = %.6g s (state norm %.3g) (allowed: %s)", t, size,
                       m->divergence_allowed);
     }

@@ -23,8 +23,8 @@
  *               such as a search over the mesh) should be written only when asked for.
  *   report      (optional) status-OK notes at fmi2Terminate (e.g. how often the deferred outputs were computed)
  *   step_held   (optional) step, also given the inputs held before this step
- *   culprit     the input most likely behind a non-finite or diverged state or output (index), or -1 (the
- *               bridge then names "state")
+ *   culprit     the input most likely behind a non-finite or diverged state or output (index), or a runtime
+ *               parameter (n_inputs + its index: e.g. an initial condition), or -1 (the bridge then names "state")
  *   start       (optional) what the process needs once before any instance (the Python kind: the interpreter)
  *   save, restore, check_saved
  *               (optional) a state the kind keeps beside x, as bytes of its own format and size (the Python kind:

@@ -681,9 +681,24 @@ static void report(void *sim, NativeResult *r) {
 
 /* The held input most likely behind an overflow (ReframeBodySimulator._overflow's scores: each input's
    displacement, rotation and acceleration over the step, h = 1 s). */
+/* With no input to blame: the initial condition (a runtime parameter, numbered after the inputs) behind an
+   overflow, as ReframeBodySimulator._overflow ranks them: the initial velocity against the initial spin (over 1 s),
+   then the largest component of the group; -1 when both are 0 or fixed at build. */
+static int initial_culprit(const ReframeSim *s) {
+    const ReframeModel *m = s->m;
+    const double *v0 = s->roles + R_V0, *w0 = s->roles + R_OMEGA0;
+    double speed = norm_n(v0, 3), spin = norm_n(w0, 3);
+    if (!(speed > 0.0) && !(spin > 0.0)) return -1;
+    int group = spin * m->size + spin * spin * m->size > speed ? R_OMEGA0 : R_V0, best = group;
+    for (int k = group; k < group + 3; k++)
+        if (fabs(s->roles[k]) > fabs(s->roles[best])) best = k;
+    return m->role[best] >= 0 ? (int)m->layout.n_inputs + m->role[best] : -1;
+}
+
 static int culprit(void *sim, int what, const double *x, const double *u, double threshold) {
     (void)x, (void)what;
-    const ReframeModel *m = ((ReframeSim *)sim)->m;
+    const ReframeSim *s = sim;
+    const ReframeModel *m = s->m;
     int best = -1;
     double best_score = 0.0;
     if (m->free_body) { /* FreeEngine.culprit: the held input of largest magnitude */
@@ -691,6 +706,7 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
             double score = isnan(u[k]) ? INFINITY : fabs(u[k]);
             if (score > best_score) best = k, best_score = score;
         }
+        if (best < 0) return initial_culprit(s);
         return what == 0 && !(best_score > threshold) ? -1 : best;
     }
     for (int k = 0; k < 6; k++) {
@@ -698,7 +714,8 @@ static int culprit(void *sim, int what, const double *x, const double *u, double
             = k < 3 ? fabs(u[k]) * (1.0 / m->mass + m->arm * m->size / m->J_min) : fabs(u[k]) * m->size / m->J_min;
         if (score > best_score || (!(score <= best_score) && best < 0)) best = k, best_score = score;
     }
-    if (what == 0) return best >= 0 && !(best_score <= threshold) ? best : -1;
+    if (best < 0 || !(best_score > 0.0)) return initial_culprit(s);
+    if (what == 0) return !(best_score <= threshold) ? best : -1;
     return best;
 }
 
