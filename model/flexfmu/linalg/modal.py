@@ -40,19 +40,49 @@ def _eigenvalues_to_hz(lam: np.ndarray) -> np.ndarray:
     return np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
 
 
+def definite_beyond_round_off(K: np.ndarray, M: np.ndarray) -> bool:
+    """Whether K is positive definite by more than the backward error of its own Cholesky factorisation.
+
+    A completed Cholesky factorisation does not prove a singular K definite: the computed factor is the exact
+    one of K + dK with |dK| <= gamma_{n+1} |L| |L^T| (Higham, ASNA Thm 10.3), so a free body's K may factorise
+    with pivots at round-off level (the slender 4 x 1 x 1 Kuhn-tetra box: 1e-5 against 4.6e10 on the diagonal),
+    and eigh(M, K) then fails on the same matrix or returns garbage.  Two steps of inverse iteration with the
+    factor (x <- K^-1 M x: components along the smallest eigenvalue grow by 1 / lambda_min per step) find the
+    softest direction; K counts as definite only when that direction's energy x^T K x exceeds the round-off
+    floor gamma_{n+1} |x|^T (|L| |L^T| + |K|) |x| (the factor's backward error plus the evaluation of x^T K x).
+    Two triangular solves and three products: O(n^2) beside the factorisation's O(n^3)."""
+    try:
+        L = sla.cholesky(K, lower=True)
+    except sla.LinAlgError:
+        return False
+    n = K.shape[0]
+    x = np.random.default_rng(0).standard_normal(n)     # fixed start: the same decision on every run
+    for _ in range(2):
+        x = sla.cho_solve((L, True), M @ x)
+        peak = float(np.max(np.abs(x)))
+        if not np.isfinite(peak) or peak == 0.0:
+            return False
+        x /= peak
+    u = np.finfo(float).eps / 2
+    gamma = (n + 1) * u / (1 - (n + 1) * u)
+    ax = np.abs(x)
+    absL = np.abs(L)
+    floor = gamma * float(ax @ (absL @ (absL.T @ ax)) + ax @ (np.abs(K) @ ax))
+    return float(x @ (K @ x)) > floor
+
+
 def dense_low_modes(K: np.ndarray, M: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Lowest eigenpairs via the inverted problem M phi = mu (K + s M) phi, lambda = 1/mu - s.
 
     eigh(K, M) reduces with the Cholesky factor of M and loses about eps * lambda_max / lambda_1
     in the low modes (~1e-9 for slender beams); the largest mu of the inverted problem are
-    accurate to ~eps * (lambda + s) / s.  s = 0 when K is positive definite; for free
-    structures s = 1e-3 of the highest requested eigenvalue from a first estimate.
+    accurate to ~eps * (lambda + s) / s.  s = 0 when K is positive definite beyond round-off
+    (definite_beyond_round_off: a free body's K may factorise with round-off pivots); otherwise (free
+    structures) s = 1e-3 of the highest requested eigenvalue from a first estimate.
     """
     n = K.shape[0]
     s = 0.0
-    try:
-        sla.cholesky(K)
-    except sla.LinAlgError:
+    if not definite_beyond_round_off(K, M):
         # up to 6 more than requested: when only rigid-body modes are requested (their eigenvalues are
         # round-off), the first elastic one still sets the scale of the shift
         estimate = sla.eigh(K, M, subset_by_index=[0, min(n, n_modes + 6) - 1], eigvals_only=True)
