@@ -40,7 +40,8 @@ FMI_CSRC = HERE / "csrc"
 BUILD_INFO = "flexfmu_build.json"
 #: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
 _FRONT = ("native_front.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
-_FRONT_HEADERS = ("flexfmu_fmi2.c", "flexfmu_bridge.h", "native_kind.h", "native_platform.h")
+_FRONT_HEADERS = ("flexfmu_fmi2.c", "front_common.c", "front_common.h", "flexfmu_bridge.h", "native_kind.h",
+                  "native_platform.h")
 _KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
 _KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
