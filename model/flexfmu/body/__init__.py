@@ -5,16 +5,19 @@ clamped to a moving base (the FFR equations with inertia integrals from M), redu
     interfaces  Interface (what the user asks for), Patch (resolved: nodes, RBE3-like D)
     free        the free body's reduced arrays and the reframe kernels on them
     clamped     the clamped body's equations (B0)-(B6) and reduced arrays; clamped_dynamics: their stepping
-    model       FlexBody: the reduced model, save / load
-    build       build_body: Structure + interfaces -> FlexBody
-    simulator   FlexBodyConfig, FlexBodySimulator, input_names, output_names, variable_info
+    model       FlexBody: the reduced model, save / load; its kinds FreeBody and ClampedBody (what differs)
+    variables   FlexBodyConfig, ClampedBodyConfig: the FMU's parameters and their checks
+    engines     FreeEngine, ClampedEngine: the state and the step of each kind
+    build       build_body: Structure + interfaces -> FreeBody or ClampedBody
+    simulator   FlexBodySimulator, input_names, output_names, variable_info
 """
 from __future__ import annotations
 
-__all__ = ["Interface", "FlexBody", "build_body", "FlexBodyConfig", "FlexBodySimulator", "input_names",
-           "output_names", "variable_info"]
+__all__ = ["Interface", "FlexBody", "FreeBody", "ClampedBody", "build_body", "FlexBodyConfig", "FlexBodySimulator",
+           "input_names", "output_names", "variable_info"]
 
-_WHERE = {"Interface": "interfaces", "FlexBody": "model", "build_body": "build", "FlexBodyConfig": "simulator",
+_WHERE = {"Interface": "interfaces", "FlexBody": "model", "FreeBody": "model", "ClampedBody": "model",
+          "build_body": "build", "FlexBodyConfig": "simulator",
           "FlexBodySimulator": "simulator", "input_names": "simulator", "output_names": "simulator",
           "variable_info": "simulator"}
 

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
 from flexfmu.body.free import free_invariants
 from flexfmu.body.interfaces import resolve_interfaces
-from flexfmu.body.model import FlexBody, InterfaceData
+from flexfmu.body.model import ClampedBody, FlexBody, FreeBody, InterfaceData
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import finite, shown
 from flexfmu.core.io import validate_structure
@@ -79,7 +79,8 @@ def _provenance(structure: Structure, reduction: dict) -> dict:
 
 def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_max=None, tolerance=None,
                damping_ratio: float = 0.02, name: str | None = None, added_mass=None) -> FlexBody:
-    """The reduced body of ``structure`` with ``interfaces`` (Interface or dicts, flexfmu.body.interfaces).
+    """The reduced body of ``structure`` with ``interfaces`` (Interface or dicts, flexfmu.body.interfaces): a
+    FreeBody or a ClampedBody (flexfmu.body.model).
 
     clamp:          None: a free body (the model's constraints ignored); "file": clamped on the model file's
                     constrained DOFs; a node-set name: clamped on all DOFs of those nodes (the base).
@@ -126,13 +127,13 @@ def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n
                              f"{len(structure.constrained_dofs)} constrained DOF(s) (as MAPDL writes them), so it "
                              "has no free-body form", '"file" (clamped on those DOFs) or a node set')
     if clamp is None:
-        kind, fixed, how = "free", np.zeros(0, dtype=np.int64), "free (no clamp)"
+        body_class, fixed, how = FreeBody, np.zeros(0, dtype=np.int64), "free (no clamp)"
         check_parts(checked, fixed, how)
         sized = free_modes(checked, LoadCase(groups, outputs), **size)
         arrays = free_invariants(checked, sized.basis)
         mass, com, inertia = float(sized.basis.mass), sized.basis.center_of_mass, sized.basis.inertia
     else:
-        kind = "clamped"
+        body_class = ClampedBody
         fixed, how = clamped_dofs(checked, clamp)
         free = np.setdiff1d(np.arange(n_dof), fixed)
         if free.size == 0:
@@ -153,19 +154,19 @@ def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n
     shapes = sized.shapes
     data = tuple(InterfaceData(name=p.name, point=p.point, nodes=p.nodes, dofs=p.dofs, D=p.D, shapes=shapes[p.dofs],
                                moments=p.moments, rule=p.rule) for p in patches)
-    reduction = {"kind": kind, "clamp": how, "retained modes": int(sized.n_modes),
+    reduction = {"kind": body_class.kind, "clamp": how, "retained modes": int(sized.n_modes),
                  "residual vectors": int(sized.eigenvalues.size - sized.n_modes),
                  "size": f"n_modes = {n_modes}" if n_modes is not None else
                  f"f_max = {f_max:g} Hz, tolerance = {1e-3 if tolerance is None else tolerance:g}",
                  "static correction": "on" if sized.eigenvalues.size > sized.n_modes else "off",
                  "damping ratio": float(damping_ratio)}
-    return FlexBody(kind=kind, name=name if name is not None else (structure.name or ""),
-                    dofs_per_node=int(checked.dofs_per_node), interfaces=data,
-                    eigenvalues=np.asarray(sized.eigenvalues, float), n_modes=int(sized.n_modes),
-                    natural_frequencies_hz=np.asarray(sized.natural_hz, float), mass=mass,
-                    center_of_mass=np.asarray(com, float), inertia=np.asarray(inertia, float),
-                    damping_ratio=float(damping_ratio), arrays=arrays, provenance=_provenance(structure, reduction),
-                    messages=tuple(sized.messages), clamped_dofs=fixed)
+    return body_class(name=name if name is not None else (structure.name or ""),
+                      dofs_per_node=int(checked.dofs_per_node), interfaces=data,
+                      eigenvalues=np.asarray(sized.eigenvalues, float), n_modes=int(sized.n_modes),
+                      natural_frequencies_hz=np.asarray(sized.natural_hz, float), mass=mass,
+                      center_of_mass=np.asarray(com, float), inertia=np.asarray(inertia, float),
+                      damping_ratio=float(damping_ratio), arrays=arrays, provenance=_provenance(structure, reduction),
+                      messages=tuple(sized.messages), clamped_dofs=fixed)
 
 
 def _with_added_mass(structure: Structure, patches, added_mass: dict, free: bool) -> Structure:

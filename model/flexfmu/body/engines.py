@@ -1,7 +1,8 @@
 """The two engines behind flexfmu.body.simulator.FlexBodySimulator: a free body (reframe kernels,
 flexfmu.body.free) and a clamped one (exact zero-order hold, flexfmu.body.clamped_dynamics).  Each holds the
 state and the held inputs, splits a communication step into internal steps (counted before stepping, by
-flexfmu.native.step_policy) and gives the outputs in the order of flexfmu.body.simulator.output_names."""
+flexfmu.native.step_policy) and gives the outputs in the order of the body's output_names (output_vector).  A body's
+class names its engine (flexfmu.body.model: FreeBody.engine_class, ClampedBody.engine_class)."""
 from __future__ import annotations
 
 import dataclasses
@@ -13,6 +14,7 @@ from flexfmu.body.clamped_dynamics import MAP_MEMO_SIZE, ClampedDynamics, HeldMa
 from flexfmu.body.free import FreeDynamics
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit
+from flexfmu.core.rotation import rotation_matrix
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.native import step_policy
 from flexfmu.reframe.layout import output_layout
@@ -26,6 +28,23 @@ _OMEGA, _ALPHA = output_layout(0, 0).omega, output_layout(0, 0).alpha     # thei
 #: it names internal_step, or for the rotation count of a free body the held input behind it
 _ALLOWED = "a smaller value, or a larger max_internal_steps"
 _INTERNAL_STEP = step_policy.Cause("internal_step", _ALLOWED)
+
+
+def _frame_global(q_omega_alpha: np.ndarray) -> np.ndarray:
+    """[rotation vector, omega, alpha] in global components from [q (scalar first), omega, alpha (body)]:
+    omega_g = R omega, and alpha_g = d(R omega)/dt = R alpha since R (omega x omega) = 0."""
+    q = q_omega_alpha[:4]
+    n = float(np.linalg.norm(q))
+    if not n > 0.0:
+        return np.full(9, np.nan)
+    w, v = q[0] / n, q[1:] / n
+    if w < 0.0:                                    # the same rotation, angle in [0, pi]
+        w, v = -w, -v
+    s = float(np.linalg.norm(v))
+    angle = 2.0 * math.atan2(s, w)
+    rot = v * (angle / s) if s > 1e-12 else 2.0 * v
+    R = rotation_matrix(rot).T                    # body -> global
+    return np.concatenate([rot, R @ q_omega_alpha[4:7], R @ q_omega_alpha[7:10]])
 
 
 class FreeEngine:
@@ -63,6 +82,15 @@ class FreeEngine:
                                  "scheme exponential, fewer modes, or a larger max_internal_steps")
         self.theta_max = 0.5 * c.tolerance ** 0.25           # rad per internal step (exponential, automatic)
         self.inputs_vec = np.zeros(sum(6 if m else 3 for m in self.moments))
+        # output_vector: the kernels' output columns of the body's outputs (the interfaces' pos, vel, acc, the
+        # frame, the centre of mass, max_elastic_displacement), then the frame's rotation in global components
+        # (from the columns ``rotation``) and the natural frequencies
+        L = output_layout(dyn.nf, len(ifs))
+        per = [L.points.start + 18 * k + j for k in range(len(ifs)) for j in range(9)]
+        self.columns = np.r_[per, L.frame_origin, L.frame_origin_velocity, L.quaternion, L.omega, L.alpha,
+                             L.com_position, L.com_velocity, L.max_elastic_displacement]
+        self.rotation = np.r_[L.quaternion, L.omega, L.alpha]
+        self.frequencies = np.asarray(body.natural_frequencies_hz, float)
 
     def hold(self, u: np.ndarray) -> None:
         self.inputs_vec = u
@@ -118,6 +146,12 @@ class FreeEngine:
 
     def outputs(self, include_deferred: bool = True) -> np.ndarray:
         return self.dyn.outputs(self.y, self.SV, include_deferred)
+
+    def output_vector(self, include_deferred: bool = True) -> np.ndarray:
+        """All outputs in the body's output_names order (max_elastic_displacement = -1 when include_deferred is
+        False).  Called under np.errstate(all="ignore") (FlexBodySimulator.output_vector)."""
+        raw = self.outputs(include_deferred)
+        return np.concatenate([raw[self.columns], _frame_global(raw[self.rotation]), self.frequencies])
 
     def get(self) -> dict:
         return {"t": self.t, "y": self.y.tolist()}
@@ -233,8 +267,9 @@ class ClampedEngine:
         self.x, self.t = x, self.t + h
         return True
 
-    def output_vector(self) -> np.ndarray:
-        """All outputs in flexfmu.body.simulator.output_names order: outputs() and the natural frequencies (Hz).
+    def output_vector(self, include_deferred: bool = True) -> np.ndarray:
+        """All outputs in the body's output_names order: outputs() and the natural frequencies (Hz); a clamped body
+        defers none (``include_deferred`` is the free engine's).
         Where the held maps overflow, the term-by-term formulas decide (they may not).  Called under
         np.errstate(all="ignore") (FlexBodySimulator.output_vector)."""
         maps, x, ul = self._maps(), self.x, self._loads_held

@@ -2,7 +2,7 @@
 ``LtiModel.from_clamped_body`` evaluates to extract the body's linear system (ClampedDynamics.system_matrix and
 modal_force, and the simulator's outputs, differenced in x and u).  Here, beside the simulator, so that
 flexfmu.native imports no simulator (native sits below body: docs/architecture.md, "Layers");
-FlexBodySimulator.lti_probe calls it.
+FlexBodySimulator.lti_probe calls it through ClampedBody.lti_probe.
 """
 from __future__ import annotations
 
@@ -10,17 +10,14 @@ import dataclasses
 
 import numpy as np
 
-from flexfmu.errors import ParameterError
 from flexfmu.native.lti import BASE_DW, BASE_OFFSET, BASE_W, Probe, inputs_of
 
 
 def clamped_body_probe(sim) -> Probe:
     """The probe of a clamped body's FlexBodySimulator ``sim``: x = [eta; eta_d], u = the interface loads and
-    base_a, p = (damping_ratio, base_w, base_dw); outputs the simulator's output_names.  A free body has no such
-    form (ParameterError naming ``body``)."""
+    base_a, p = (damping_ratio, base_w, base_dw); outputs the simulator's output_names.  ClampedBody.lti_probe
+    calls it; a free body has no such form (FlexBody.lti_probe: ParameterError naming ``body``)."""
     body = sim.body
-    if body.kind != "clamped":
-        raise ParameterError("body", f"a {body.kind} body", "a clamped body (flexfmu.body: build_body(clamp=...))")
     names = tuple(sim.input_names)
     index = {name: k for k, name in enumerate(names)}
     param_names = ("damping_ratio", *BASE_W, *BASE_DW)

@@ -1,7 +1,11 @@
-"""The reduced model of a flexible body (:class:`FlexBody`): everything its simulator needs and nothing that needs
-the original model file, saved as one ``.npz``.
+"""The reduced model of a flexible body: everything its simulator needs and nothing that needs the original model
+file, saved as one ``.npz``.  :class:`FlexBody` holds what every body has; its two kinds are classes, each owning
+what differs: :class:`FreeBody` (the reframe kernels on reduced invariants) and :class:`ClampedBody` (a body clamped
+to a moving base): the names and shapes of their reduced arrays, their wording, their FMU's parameters, inputs and
+outputs, their engine (flexfmu.body.engines) and their native FMU's model kind.
 
-File (``FlexBody.save``; np.savez_compressed, read with allow_pickle=False):
+File (``FlexBody.save``; np.savez_compressed, read with allow_pickle=False; ``FlexBody.load`` returns the class its
+header's kind names):
 
     header                 JSON text: format "flexfmu-body", version, kind, name, dofs_per_node, n_modes,
                            damping_ratio, mass, the interfaces (name, point, moments, how the patch was chosen),
@@ -22,27 +26,50 @@ from __future__ import annotations
 import json
 import math
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
+from flexfmu.body.engines import ClampedEngine, FreeEngine
+from flexfmu.body.variables import AXES, ClampedBodyConfig, FlexBodyConfig, axes_info, parameter_info
 from flexfmu.errors import ParameterError
 
 FORMAT = "flexfmu-body"
 FORMAT_VERSION = 1
-KINDS = ("free", "clamped")
+
+# the variables a kind adds to its interfaces' (FreeBody, ClampedBody; their values: flexfmu.body.engines)
+#: a free body's outputs after the interfaces': its frame's motion, its centre of mass, the elastic displacement
+FREE_BODY_OUTPUTS = (tuple(f"pos_{a}" for a in AXES) + tuple(f"vel_{a}" for a in AXES) + ("q_w", "q_x", "q_y", "q_z")
+                     + tuple(f"omega_{i}" for i in (1, 2, 3)) + tuple(f"alpha_{i}" for i in (1, 2, 3))
+                     + tuple(f"com_pos_{a}" for a in AXES) + tuple(f"com_vel_{a}" for a in AXES)
+                     + ("max_elastic_displacement",))
+#: the body frame's rotation in global components (what a seakeeping or a clamped component downstream reads):
+#: rotation vector, angular velocity and acceleration; computed from q and omega_k, alpha_k (body)
+FRAME_GLOBAL_OUTPUTS = (tuple(f"rot_{a}" for a in AXES) + tuple(f"omega_{a}" for a in AXES)
+                        + tuple(f"alpha_{a}" for a in AXES))
+#: a clamped body's outputs after the interfaces': what it exerts on its clamps
+REACTION_OUTPUTS = tuple(f"reaction_F_{a}" for a in AXES) + tuple(f"reaction_M_{a}" for a in AXES)
+#: a clamped body's inputs after the interfaces': its base's motion, body frame
+BASE_INPUTS = (tuple(f"base_a_{a}" for a in AXES) + tuple(f"base_w_{a}" for a in AXES)
+               + tuple(f"base_dw_{a}" for a in AXES))
 
 
-def _shapes(kind: str, m: int) -> dict:
-    """Expected shapes of the kind's reduced arrays (None: any length on that axis)."""
-    if kind == "free":
-        return {"mass": (), "J0": (3, 3), "Aj": (m, 3, 3), "Bsym": (m, 3, 3), "Cjk": (m, m, 3, 3), "Dj": (m, 3, m),
-                "A6": (6, 6), "center_of_mass": (3,), "inertia": (3, 3), "nodes": (None, 3),
-                "translations": (None, 3, m)}
-    return {"mass": (), "first_moment": (3,), "J0": (3, 3), "Sa": (m, 3), "Sw": (m, 3), "B": (3, m, m),
-            "N": (3, 3, m, m), "R": (3, 3, m), "Vp": (2, 3, m), "Va": (2, 3, 3, m), "Vq": (2, 3, 3, 3, m),
-            "Vr": (2, 3, 3, m), "arm": (15, 3, m)}
+class _ClassConstant:
+    """A class attribute that instances cannot rebind (a body's kind is its class)."""
+
+    def __init__(self, value):
+        self.value = value
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def __get__(self, obj, owner=None):
+        return self.value
+
+    def __set__(self, obj, value):
+        raise AttributeError(f"{type(obj).__name__}.{self.name} is its class's ({self.value!r}): read-only")
 
 
 @dataclass
@@ -68,13 +95,33 @@ class InterfaceData:
 
 @dataclass
 class FlexBody:
-    """A reduced flexible body (module docstring).  kind: "free" | "clamped"; eigenvalues: omega^2 of the m
-    retained elastic coordinates, the first n_modes eigenmodes, the rest residual-flexibility vectors;
-    natural_frequencies_hz: f_1 ... (at most six); mass (kg), center_of_mass (3,) m and inertia (3, 3) kg m^2
-    about it, body frame; arrays: the kind's reduced arrays; provenance: JSON-able text about the source and the
-    reduction; messages: what the reduction chose and why."""
+    """A reduced flexible body (module docstring): a :class:`FreeBody` or a :class:`ClampedBody`.  eigenvalues:
+    omega^2 of the m retained elastic coordinates, the first n_modes eigenmodes, the rest residual-flexibility
+    vectors; natural_frequencies_hz: f_1 ... (at most six); mass (kg), center_of_mass (3,) m and inertia (3, 3)
+    kg m^2 about it, body frame; arrays: the kind's reduced arrays (``array_shapes``); provenance: JSON-able text
+    about the source and the reduction; messages: what the reduction chose and why.
 
-    kind: str
+    What a kind decides is its class's (class attributes, and the methods below that read them): ``kind`` (the
+    file header's word), ``what`` (the summary's), ``config_class`` (the FMU's parameters), ``engine_class``
+    (flexfmu.body.engines), ``native_kind`` (the native FMU's model kind: flexfmu.fmi.native), ``body_inputs`` and
+    ``body_outputs`` (after the interfaces'), ``deferred_outputs``, the wording of the variables (``frame``,
+    ``interface_notes``, ``frequency_text``, ``_body_variable_info``), ``array_shapes``, ``check_initial_motion``
+    and ``lti_probe``."""
+
+    kind: ClassVar[str]
+    what: ClassVar[str]
+    config_class: ClassVar[type]
+    engine_class: ClassVar[type]
+    native_kind: ClassVar[str]
+    body_inputs: ClassVar[tuple] = ()
+    body_outputs: ClassVar[tuple] = ()
+    #: outputs whose cost grows with the mesh (computed only when read, flexfmu.fmi.plumbing)
+    deferred_outputs: ClassVar[tuple] = ()
+    #: the frame of the interfaces' loads and motion, and what each of pos, vel, acc adds to its description
+    frame: ClassVar[str]
+    interface_notes: ClassVar[dict]
+    frequency_text: ClassVar[str]
+
     name: str
     dofs_per_node: int
     interfaces: tuple
@@ -89,6 +136,16 @@ class FlexBody:
     provenance: dict = field(default_factory=dict)
     messages: tuple = ()
     clamped_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    def __post_init__(self):
+        if not isinstance(getattr(type(self), "kind", None), str):
+            raise TypeError(f"{type(self).__name__} has no kind: a body is a FreeBody or a ClampedBody")
+
+    @classmethod
+    def array_shapes(cls, m: int) -> dict:
+        """Expected shapes of the kind's reduced arrays for m retained coordinates (None: any length on that
+        axis)."""
+        raise NotImplementedError
 
     @property
     def n_coordinates(self) -> int:
@@ -107,8 +164,7 @@ class FlexBody:
         return np.sqrt(np.maximum(self.eigenvalues, 0.0)) / (2.0 * math.pi)
 
     def summary(self) -> str:
-        what = "free flexible body" if self.kind == "free" else "flexible body clamped to a moving base"
-        return (f"{self.name or 'body'}: {what}, {self.mass:.6g} kg, {self.n_modes} mode(s)"
+        return (f"{self.name or 'body'}: {self.what}, {self.mass:.6g} kg, {self.n_modes} mode(s)"
                 + (f" + {self.n_coordinates - self.n_modes} residual vector(s)" if self.n_coordinates > self.n_modes
                    else "") + f", interfaces {', '.join(i.name for i in self.interfaces)}")
 
@@ -131,6 +187,58 @@ class FlexBody:
             lines.append(f"interface {i.name}: point {np.round(i.point, 9).tolist()} m, {i.rule}"
                          + (", force and moment" if i.moments else ", force only"))
         return lines
+
+    # ------------------------------------------------------------------ the FMU's variables
+    def input_names(self) -> tuple[str, ...]:
+        """The inputs in the order of FlexBodySimulator.set_input_vector (flexfmu.body.simulator's docstring): each
+        interface's force (and moment, where its patch carries one), then the kind's own."""
+        out = []
+        for i in self.interfaces:
+            out += [f"{i.name}.F_{a}" for a in AXES]
+            if i.moments:
+                out += [f"{i.name}.M_{a}" for a in AXES]
+        return tuple(out) + self.body_inputs
+
+    def frequency_names(self) -> tuple[str, ...]:
+        """f_1 .. f_k: the natural_frequencies_hz outputs."""
+        return tuple(f"f_{k}" for k in range(1, len(self.natural_frequencies_hz) + 1))
+
+    def output_names(self) -> tuple[str, ...]:
+        """The outputs in the order of FlexBodySimulator.output_vector: each interface's pos, vel, acc, then the
+        kind's own, then the natural frequencies."""
+        per = tuple(f"{i.name}.{q}_{a}" for i in self.interfaces for q in ("pos", "vel", "acc") for a in AXES)
+        return per + self.body_outputs + self.frequency_names()
+
+    def variable_info(self) -> dict[str, tuple[str, str]]:
+        """name -> (unit, description) of every parameter (those of config_class), input and output."""
+        parameters = parameter_info(self.damping_ratio)
+        info = {f.name: parameters[f.name] for f in fields(self.config_class)}
+        frame, notes = self.frame, self.interface_notes
+        for i in self.interfaces:
+            info.update(axes_info(f"{i.name}.F", "N", f"force at interface {i.name}, {frame}"))
+            if i.moments:
+                info.update(axes_info(f"{i.name}.M", "N.m", f"moment at interface {i.name}, {frame}"))
+            info.update(axes_info(f"{i.name}.pos", "m", f"position of interface {i.name} (rigid fit of its patch), "
+                                  f"{frame}" + notes["pos"]))
+            info.update(axes_info(f"{i.name}.vel", "m/s", f"velocity of interface {i.name}, {frame}" + notes["vel"]))
+            info.update(axes_info(f"{i.name}.acc", "m/s2", f"acceleration of interface {i.name}, {frame}"
+                                  + notes["acc"]))
+        info.update(self._body_variable_info())
+        info.update({n: ("Hz", f"{self.frequency_text} {k}") for k, n in enumerate(self.frequency_names(), start=1)})
+        return info
+
+    def _body_variable_info(self) -> dict[str, tuple[str, str]]:
+        """The kind's own variables (body_inputs, body_outputs): name -> (unit, description)."""
+        raise NotImplementedError
+
+    def check_initial_motion(self, name: str, value: float) -> None:
+        """ParameterError if the body cannot start with ``value`` of the initial motion ``name`` (v0_*, omega0_*
+        of FlexBodyConfig; flexfmu.body.variables.check_config)."""
+
+    def lti_probe(self, sim):
+        """The maps of ``sim`` (this body's FlexBodySimulator) as flexfmu.native.lti's Probe, for
+        LtiModel.from_clamped_body; ParameterError naming ``body`` for a kind without that form."""
+        raise ParameterError("body", f"a {self.kind} body", "a clamped body (flexfmu.body: build_body(clamp=...))")
 
     # ------------------------------------------------------------------ file
     def save(self, path) -> Path:
@@ -156,7 +264,8 @@ class FlexBody:
 
     @classmethod
     def load(cls, path) -> "FlexBody":
-        """Read a body written by :meth:`save`; ParameterError naming the file for a missing, corrupt or
+        """Read a body written by :meth:`save`, as the class its header's kind names (FreeBody.load and
+        ClampedBody.load refuse the other kind); ParameterError naming the file for a missing, corrupt or
         incompatible one."""
         name = str(path)
 
@@ -178,10 +287,95 @@ class FlexBody:
             bad("not a flexfmu body file")
         if header.get("version") != FORMAT_VERSION:
             bad(f"format version {header.get('version')!r}")
+        body_class = BODY_CLASSES.get(header.get("kind"))
+        if body_class is not None and not issubclass(body_class, cls):
+            bad(f"a {body_class.kind} body", f"a {cls.kind} body: {cls.__name__}.load, or FlexBody.load for either")
         try:
             return _from_parts(header, files)
         except (KeyError, TypeError, ValueError, IndexError) as exc:
             bad(f"inconsistent content ({type(exc).__name__}: {exc})")
+
+
+class FreeBody(FlexBody):
+    """A free body: the reframe kernels on reduced invariants (flexfmu.body.free), inputs and outputs global."""
+
+    kind = _ClassConstant("free")
+    what = "free flexible body"
+    config_class = FlexBodyConfig
+    engine_class = FreeEngine
+    native_kind = "reframe"
+    body_outputs = FREE_BODY_OUTPUTS + FRAME_GLOBAL_OUTPUTS
+    deferred_outputs = ("max_elastic_displacement",)
+    frame = "global"
+    interface_notes = {"pos": "", "vel": "", "acc": ""}
+    frequency_text = "elastic natural frequency"
+
+    @classmethod
+    def array_shapes(cls, m: int) -> dict:
+        return {"mass": (), "J0": (3, 3), "Aj": (m, 3, 3), "Bsym": (m, 3, 3), "Cjk": (m, m, 3, 3), "Dj": (m, 3, m),
+                "A6": (6, 6), "center_of_mass": (3,), "inertia": (3, 3), "nodes": (None, 3),
+                "translations": (None, 3, m)}
+
+    def _body_variable_info(self) -> dict[str, tuple[str, str]]:
+        info = axes_info("pos", "m", "position of the body frame's origin, global")
+        info.update(axes_info("vel", "m/s", "velocity of the body frame's origin, global"))
+        info.update({f"q_{c}": ("", f"orientation quaternion body -> global, scalar first, {c}") for c in "wxyz"})
+        info.update({f"omega_{k}": ("rad/s", f"angular velocity, body frame, {k}") for k in (1, 2, 3)})
+        info.update({f"alpha_{k}": ("rad/s2", f"angular acceleration, body frame, {k}") for k in (1, 2, 3)})
+        info.update(axes_info("com_pos", "m", "centre of mass (of the deformed body too), global"))
+        info.update(axes_info("com_vel", "m/s", "velocity of the centre of mass, global"))
+        info["max_elastic_displacement"] = ("m", "largest elastic nodal displacement, body frame norm")
+        info.update({f"rot_{a}": ("", f"rotation vector of the body frame (body -> global), global {a}, rad")
+                     for a in AXES})
+        info.update(axes_info("omega", "rad/s", "angular velocity of the body frame, global"))
+        info.update(axes_info("alpha", "rad/s2", "angular acceleration of the body frame, global"))
+        return info
+
+
+class ClampedBody(FlexBody):
+    """A body clamped to a moving base (flexfmu.body.clamped, Eqs. B0-B6): the base's motion are inputs, the
+    reactions on the clamps outputs, everything in the body frame."""
+
+    kind = _ClassConstant("clamped")
+    what = "flexible body clamped to a moving base"
+    config_class = ClampedBodyConfig
+    engine_class = ClampedEngine
+    native_kind = "lti"
+    body_inputs = BASE_INPUTS
+    body_outputs = REACTION_OUTPUTS
+    frame = "body frame"
+    interface_notes = {"pos": ", from the body origin", "vel": ", elastic, relative to the base",
+                       "acc": ", absolute (accelerometer)"}
+    frequency_text = "natural frequency of the clamped structure"
+
+    @classmethod
+    def array_shapes(cls, m: int) -> dict:
+        return {"mass": (), "first_moment": (3,), "J0": (3, 3), "Sa": (m, 3), "Sw": (m, 3), "B": (3, m, m),
+                "N": (3, 3, m, m), "R": (3, 3, m), "Vp": (2, 3, m), "Va": (2, 3, 3, m), "Vq": (2, 3, 3, 3, m),
+                "Vr": (2, 3, 3, m), "arm": (15, 3, m)}
+
+    def _body_variable_info(self) -> dict[str, tuple[str, str]]:
+        info = axes_info("base_a", "m/s2", "acceleration of the base (body frame origin), body frame")
+        info.update(axes_info("base_w", "rad/s", "angular velocity of the base, body frame"))
+        info.update(axes_info("base_dw", "rad/s2", "angular acceleration of the base, body frame"))
+        info.update(axes_info("reaction_F", "N", "force the body exerts on its clamps, body frame"))
+        info.update(axes_info("reaction_M", "N.m", "moment the body exerts on its clamps about the body origin, "
+                                                   "body frame"))
+        return info
+
+    def check_initial_motion(self, name: str, value: float) -> None:
+        if value != 0.0:
+            raise ParameterError(name, f"{value:g}: a clamped body moves with its base", "0 for a clamped body")
+
+    def lti_probe(self, sim):
+        from flexfmu.body.lti_probe import clamped_body_probe      # on use: importing the body loads no native.lti
+        return clamped_body_probe(sim)
+
+
+#: the body classes by the kind their file's header names
+BODY_CLASSES = {cls.kind: cls for cls in (FreeBody, ClampedBody)}
+#: the kinds a body file may name
+KINDS = tuple(BODY_CLASSES)
 
 
 def _array(files, key, shape, integer=False):
@@ -198,8 +392,9 @@ def _array(files, key, shape, integer=False):
 
 def _from_parts(header: dict, files: dict) -> FlexBody:
     kind = header["kind"]
-    if kind not in KINDS:
+    if kind not in BODY_CLASSES:
         raise ValueError(f"kind {kind!r}")
+    body_class = BODY_CLASSES[kind]
     eig = _array(files, "eigenvalues", (None,))
     m = eig.size
     n_modes = int(header["n_modes"])
@@ -222,7 +417,7 @@ def _from_parts(header: dict, files: dict) -> FlexBody:
     names = [i.name for i in interfaces]
     if not names or len(set(names)) != len(names):
         raise ValueError("interface names missing or not unique")
-    expected = _shapes(kind, m)
+    expected = body_class.array_shapes(m)
     if sorted(header["arrays"]) != sorted(expected):
         raise ValueError(f"reduced arrays {sorted(header['arrays'])}")
     arrays = {k: _array(files, f"inv.{k}", shape) for k, shape in expected.items()}
@@ -232,10 +427,10 @@ def _from_parts(header: dict, files: dict) -> FlexBody:
     mass = float(header["mass"])
     if not (math.isfinite(mass) and mass > 0):
         raise ValueError(f"mass {mass}")
-    return FlexBody(kind=kind, name=str(header["name"]), dofs_per_node=dpn, interfaces=tuple(interfaces),
-                    eigenvalues=eig, n_modes=n_modes,
-                    natural_frequencies_hz=_array(files, "natural_frequencies_hz", (None,)), mass=mass,
-                    center_of_mass=_array(files, "center_of_mass", (3,)), inertia=_array(files, "inertia", (3, 3)),
-                    damping_ratio=damping, arrays=arrays, provenance=dict(header.get("provenance") or {}),
-                    messages=tuple(str(s) for s in header.get("messages", ())),
-                    clamped_dofs=_array(files, "clamped_dofs", (None,), integer=True))
+    return body_class(name=str(header["name"]), dofs_per_node=dpn, interfaces=tuple(interfaces),
+                      eigenvalues=eig, n_modes=n_modes,
+                      natural_frequencies_hz=_array(files, "natural_frequencies_hz", (None,)), mass=mass,
+                      center_of_mass=_array(files, "center_of_mass", (3,)), inertia=_array(files, "inertia", (3, 3)),
+                      damping_ratio=damping, arrays=arrays, provenance=dict(header.get("provenance") or {}),
+                      messages=tuple(str(s) for s in header.get("messages", ())),
+                      clamped_dofs=_array(files, "clamped_dofs", (None,), integer=True))

@@ -195,18 +195,29 @@ def build_registry_fmu(name: str = "FFRBeam", settings: dict | None = None, *, o
 
 # ---------------------------------------------------------------------------------------------- exported bodies
 def body_source(body, name: str, description: str | None = None, *, scheme: str = "exponential") -> NativeSource:
-    """The native source of an exported body (flexfmu.body.FlexBody): a clamped one as the LTI kind, a free one as
-    the reframe kind (:func:`_free_body_source`, its ``scheme`` fixed at build)."""
-    from flexfmu.body.simulator import FlexBodySimulator, config_class
-    from flexfmu.fmi.body_fmu import ExportedSpec, check_model_identifier, default_experiment, documentation_html
-    from flexfmu.native.lti import LtiModel
+    """The native source of an exported body (flexfmu.body.FlexBody) as the native model kind its class names
+    (``native_kind``): a ClampedBody as the LTI kind (:func:`_clamped_body_source`), a FreeBody as the reframe kind
+    (:func:`_free_body_source`, its ``scheme`` fixed at build)."""
+    from flexfmu.fmi.body_fmu import check_model_identifier
 
     check_model_identifier(name)
-    if body.kind != "clamped":
-        return _free_body_source(body, name, description, scheme)
+    native_kind = getattr(body, "native_kind", None)
+    if native_kind not in _BODY_SOURCES:
+        raise ParameterError("body", f"{type(body).__name__} (native kind {native_kind!r})",
+                             "a FreeBody or a ClampedBody (flexfmu.body.model)")
+    return _BODY_SOURCES[native_kind](body, name, description, scheme)
+
+
+def _clamped_body_source(body, name: str, description: str | None, scheme: str) -> NativeSource:
+    """An exported clamped body as the LTI kind (csrc/native_lti.c): the linear system extracted from its
+    FlexBodySimulator's maps (flexfmu.native.lti.LtiModel.from_clamped_body); ``scheme`` is a free body's."""
+    from flexfmu.body.simulator import FlexBodySimulator
+    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html
+    from flexfmu.native.lti import LtiModel
+
     description = description or body.summary()
     spec = ExportedSpec(name, description, body)
-    config = config_class(body)()
+    config = body.config_class()
     sim = FlexBodySimulator(body, config)
     lti = LtiModel.from_clamped_body(sim)
     zeta = float(body.damping_ratio)
@@ -228,7 +239,8 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
     its FlexBodySimulator's FreeDynamics written once, one load and one output point per interface, the outputs
     by the simulator's own columns plus the global frame vectors and the frequencies; ``scheme`` fixed at build,
     the other parameters settable."""
-    from flexfmu.body.simulator import TOLERANCE_RANGE, FlexBodySimulator, _INITIAL, config_class
+    from flexfmu.body.simulator import FlexBodySimulator
+    from flexfmu.body.variables import INITIAL_MOTION, TOLERANCE_RANGE
     from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html
     from flexfmu.reframe.schemes import scheme_class
 
@@ -236,7 +248,7 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
                         hint=", the free-body schemes with a native form").native_code
     description = description or body.summary()
     spec = ExportedSpec(name, description, body)
-    config = config_class(body)(scheme=scheme)
+    config = body.config_class(scheme=scheme)
     sim = FlexBodySimulator(body, config)
     engine, dyn = sim.engine, sim.engine.dyn
     nf = dyn.nf
@@ -247,9 +259,9 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
                RuntimeParameter("tolerance", lo, hi, hi_open=True, allowed=f"{lo:g} <= tolerance < {hi:g}"),
                RuntimeParameter("internal_step", 0.0, allowed="0 (automatic) or a step > 0 s"),
                _max_internal_steps(),
-               *(RuntimeParameter(n, allowed="a finite number") for n in _INITIAL))
+               *(RuntimeParameter(n, allowed="a finite number") for n in INITIAL_MOTION))
     order, bc, br, sc, sr = dyn.umax
-    n_direct = len(sim._columns)
+    n_direct = len(engine.columns)
     first, loads = 0, []
     for moments in engine.moments:
         loads.append([first, 6 if moments else 3])
@@ -262,7 +274,7 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
         columns = []
         for out in outputs:
             k = sim.output_names.index(out)
-            columns.append(int(sim._columns[k]) if k < n_direct else -1 - (k - n_direct))
+            columns.append(int(engine.columns[k]) if k < n_direct else -1 - (k - n_direct))
         return {
             "reframe.P": np.array(dyn.P, dtype=float), "reframe.LP": np.array(dyn.LP, dtype=float),
             "reframe.PP": np.array(dyn.PP, dtype=float).reshape(dyn.n_if, 3 + 3 * nf),
@@ -278,7 +290,7 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
             "reframe.body": np.array([1, code, dyn.n_if, 0], np.int32),
             "reframe.loads": np.array(loads, np.int32).reshape(dyn.n_if, 2),
             "reframe.limit": np.array([limit], float),
-            "reframe.extra": np.asarray(sim._f, float).reshape(-1),
+            "reframe.extra": np.asarray(engine.frequencies, float).reshape(-1),
         }
 
     page = documentation_html(name, body)
@@ -288,6 +300,10 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
         experiment=default_experiment(body), kind="reframe", kind_entries=entries, messages=list(sim.messages),
         rebuild=f"flexfmu export MODEL -o {name}.fmu ... --runtime native", log_split=True, documentation=summary,
         info={"source": body.summary(), "scheme": scheme})
+
+
+#: the source of each native model kind an exported body's class names (FlexBody.native_kind)
+_BODY_SOURCES = {"lti": _clamped_body_source, "reframe": _free_body_source}
 
 
 def export_native(body, target, *, description: str | None = None, scheme: str = "exponential") -> Path:
