@@ -1,109 +1,153 @@
-"""Probes of built FMUs as users load them, each in a fresh host process (the venv's Python with fmpy):
-a battery of bad values and calls, instantiate/free cycles with the resident memory, and short host
-processes run to exit under CPU load.  benchmarks/reliability.py reports them (docs/reliability.md);
-the tests assert on them (tests/test_fmu_loading.py)."""
+"""Probes of built FMUs as users load them, each in a host process of its own (the venv's Python with fmpy,
+never importing flexfmu: a Python FMU needs the process free of another flexfmu build):
+
+- BATTERY, ``battery``: bad values and calls, each on a fresh instance, in a child that a crash or a hang costs one
+  call (flexfmu.fmi.diagnostics_runner; the host code: flexfmu.fmi.diagnostics_host);
+- ``cycles``: instantiate/free cycles with the resident memory;
+- ``exit_stress``: short host processes run to exit under CPU load.
+
+The other probe groups have modules of their own: diagnostics_states (foreign and damaged FMU states),
+diagnostics_reentrant (loggers that call back), diagnostics_clock (large start times).  benchmarks/reliability.py
+reports them all (docs/reliability.md); tests/test_fmu_loading.py asserts on the cycles and the exit stress.
+"""
 from __future__ import annotations
 
-import json
 import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
 
 from flexfmu.errors import FlexfmuError
+from flexfmu.fmi.diagnostics_host import HOST
+from flexfmu.fmi.diagnostics_runner import run_resumable
 
-BATTERY = r"""
-import json, math, sys, time, shutil
-from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave
-path = sys.argv[1]
-md = read_model_description(path)
-variables = {v.name: v for v in md.modelVariables}
-by_kind = lambda kind, causality=None: [v for v in md.modelVariables if v.type == kind
-                                        and (causality is None or v.causality == causality)]
-outputs = by_kind("Real", "output")
-inputs = by_kind("Real", "input")
-real_parameters = by_kind("Real", "parameter")
-results, slowest, nonfinite = [], 0.0, 0
-
-def fresh(initialised=True):
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName="r")
-    fmu.instantiate()
-    fmu.setupExperiment(startTime=0.0)
-    fmu.enterInitializationMode()
-    if initialised:
-        fmu.exitInitializationMode()
-    return fmu
-
-def attempt(label, action, initialised=True):
-    global slowest, nonfinite
-    fmu = fresh(initialised)
-    tic = time.perf_counter()
-    try:
-        value = action(fmu)
-        status = 0
-        if isinstance(value, list) and any(isinstance(x, float) and not math.isfinite(x) for x in value):
-            nonfinite += 1
-    except Exception as exc:
-        status = getattr(exc, "status", -1)
-    slowest = max(slowest, time.perf_counter() - tic)
-    results.append((label, status))
-    fmu.freeInstance()
-
+BATTERY = HOST + r"""
+PATH = CONFIG["fmu"]
+QUICK = CONFIG.get("quick", False)
+md = description(PATH)
 n_vr = len(md.modelVariables)
-out_vr, in_vr = outputs[0].valueReference, inputs[0].valueReference if inputs else None
-for bad in (n_vr, n_vr + 7, 2**31 - 1):
-    attempt("getReal unknown vr", lambda f: f.getReal([bad]))
-    attempt("setReal unknown vr", lambda f: f.setReal([bad], [0.0]))
+outputs, inputs = variables(PATH, "Real", "output"), variables(PATH, "Real", "input")
+out_vr, in_vr = outputs[0].valueReference, (inputs[0].valueReference if inputs else None)
+NAN, INF = float("nan"), float("inf")
+
+
+def call(label, expect, action, level="initialised"):
+    item(label, expect, lambda: probe(PATH, action, level))
+
+
+def step_and_read(f, h=1e-3, t=0.0):
+    f.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+    values = f.get()
+    status, clock = f.clock()
+    if not math.isfinite(clock):
+        raise Wrong(f"fmi2LastSuccessfulTime {clock} after a step answered OK")
+    return values
+
+
+# unknown value references and other types
+for bad in (n_vr, n_vr + 7, 2**32 - 1):
+    call(f"fmi2GetReal of unknown vr {bad}", "refuse", lambda f, bad=bad: f.getReal([bad]))
+    call(f"fmi2SetReal of unknown vr {bad}", "refuse", lambda f, bad=bad: f.setReal([bad], [0.0]), "init")
 for kind in ("Integer", "Boolean", "String"):
-    for v in by_kind(kind)[:2]:
-        attempt(f"getReal of a {kind}", lambda f: f.getReal([v.valueReference]))
-        attempt(f"setReal of a {kind}", lambda f: f.setReal([v.valueReference], [1.0]), initialised=False)
+    for v in variables(PATH, kind)[:2]:
+        call(f"fmi2GetReal of a {kind}", "refuse", lambda f, v=v: f.getReal([v.valueReference]))
+        call(f"fmi2SetReal of a {kind}", "refuse", lambda f, v=v: f.setReal([v.valueReference], [1.0]), "init")
+    call(f"fmi2Get{kind} of a Real", "refuse", lambda f, kind=kind: getattr(f, "get" + kind)([out_vr]))
+call("fmi2GetReal of no variables", "ok", lambda f: f.getReal([]))
+# what may not be set
 for v in outputs[:5]:
-    attempt("setReal on an output", lambda f: f.setReal([v.valueReference], [1.0]))
-for v in real_parameters[:5]:
-    attempt("setReal on a fixed parameter after init", lambda f: f.setReal([v.valueReference], [1.0]))
-for bad in (float("nan"), float("inf"), -float("inf")):
-    for v in inputs[:6]:
-        attempt("non-finite input", lambda f: f.setReal([v.valueReference], [bad]))
-    for v in real_parameters[:6]:
-        attempt("non-finite parameter", lambda f: f.setReal([v.valueReference], [bad]), initialised=False)
-    attempt("non-finite time", lambda f: f.doStep(currentCommunicationPoint=bad, communicationStepSize=1e-3))
-    attempt("non-finite step", lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=bad))
-for t in (0.5, -1.0):
-    attempt("wrong communication point", lambda f: f.doStep(currentCommunicationPoint=t, communicationStepSize=1e-3))
+    call("fmi2SetReal on an output", "refuse", lambda f, v=v: f.setReal([v.valueReference], [1.0]))
+for v in variables(PATH, "Real", "parameter")[:5]:
+    call("fmi2SetReal on a parameter after initialisation", "refuse",
+         lambda f, v=v: f.setReal([v.valueReference], [v.start and float(v.start) or 1.0]))
+for bad in (NAN, INF, -INF):
+    for v in inputs[:4]:
+        call("non-finite input", "refuse", lambda f, v=v, bad=bad: f.setReal([v.valueReference], [bad]))
+    for v in variables(PATH, "Real", "parameter")[:4]:
+        call("non-finite parameter", "refuse", lambda f, v=v, bad=bad: f.setReal([v.valueReference], [bad]), "init")
+    call("non-finite communication point", "refuse",
+         lambda f, bad=bad: f.doStep(currentCommunicationPoint=bad, communicationStepSize=1e-3))
+    call("non-finite step", "refuse",
+         lambda f, bad=bad: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=bad))
+    def bad_start(f, bad=bad):
+        f.setupExperiment(startTime=bad)
+        f.enterInitializationMode()
+        f.exitInitializationMode()
+        return step_and_read(f, t=bad)
+    call("non-finite start time", "refuse", bad_start, "instantiated")
+for v in variables(PATH, "String", "parameter")[:1]:
+    def not_utf8(f, v=v):
+        vr, text = (ctypes.c_uint * 1)(v.valueReference), (ctypes.c_char_p * 1)(b"\xff\xfe bad")
+        status = f.raw("fmi2SetString", f.component, vr, 1, text)
+        f.statuses.append(status)
+    call("a String that is not UTF-8", "refuse", not_utf8, "init")
+# the clock and the step
+for t in (0.5, -1.0, 1e-3):
+    call("wrong communication point", "refuse",
+         lambda f, t=t: f.doStep(currentCommunicationPoint=t, communicationStepSize=1e-3))
 for h in (0.0, -1e-3):
-    attempt("step <= 0", lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=h))
-attempt("second exitInitializationMode", lambda f: f.exitInitializationMode())
-attempt("setupExperiment after init", lambda f: f.setupExperiment(startTime=0.0))
-attempt("doStep before exitInitializationMode",
-        lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3), initialised=False)
+    call("step <= 0", "refuse", lambda f, h=h: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=h))
+for h in (1e300, 1e-300, 5e-324):
+    call(f"step of {h:g} s", "any", lambda f, h=h: step_and_read(f, h))
+def overflowing_clock(f):
+    step_and_read(f, 1e308)
+    return step_and_read(f, 1e308, 1e308)
+call("two steps of 1e308 s (the clock overflows)", "refuse", overflowing_clock)
+# the call sequence
+call("second fmi2ExitInitializationMode", "refuse", lambda f: f.exitInitializationMode())
+call("fmi2SetupExperiment after initialisation", "refuse", lambda f: f.setupExperiment(startTime=0.0))
+call("fmi2DoStep in initialisation mode", "refuse",
+     lambda f: f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3), "init")
+call("fmi2GetRealStatus in initialisation mode", "refuse",
+     lambda f: f.statuses.append(f.clock()[0]), "init")
 def after_terminate(f):
     f.terminate()
     f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
-attempt("doStep after terminate", after_terminate)
-def damaged(cut):
-    def run(f):
-        data = f.serializeFMUstate(f.getFMUstate())
-        f.deSerializeFMUstate(cut(data))
-    return run
-attempt("truncated state", damaged(lambda b: b[: len(b) // 2]))
-attempt("garbage state", damaged(lambda b: bytes(len(b))))
-attempt("state with garbage payload", damaged(lambda b: b[:60] + b"{" * 100000))
-if "max_internal_steps" in variables:          # a step above the cap: fmi2Discard, a smaller one may do
+call("fmi2DoStep after fmi2Terminate", "refuse", after_terminate)
+def terminate_twice(f):
+    f.terminate()
+    f.terminate()
+call("second fmi2Terminate", "refuse", terminate_twice)
+def reset_and_rerun(f):
+    step_and_read(f)
+    f.reset()
+    f.setupExperiment(startTime=0.0)
+    f.enterInitializationMode()
+    f.exitInitializationMode()
+    return step_and_read(f)
+call("fmi2Reset and a second run", "ok", reset_and_rerun)
+if "max_internal_steps" in {v.name for v in md.modelVariables}:      # fmi2Discard: a smaller step may do
     def over_cap(f):
-        f.reset(); f.setupExperiment(startTime=0.0); f.enterInitializationMode()
-        f.setInteger([variables["max_internal_steps"].valueReference], [1])
-        for name, value in (("integrator", "rk4"), ("scheme", "consistent")):
-            if name in variables:
-                f.setString([variables[name].valueReference], [value])
+        f.set("max_internal_steps", 1)
+        for name, value in (("integrator", "rk4"), ("scheme", "consistent"), ("internal_step", 1e-4)):
+            if name in f.vr:
+                try:
+                    f.set(name, value)
+                except FMICallException:
+                    del f.statuses[-1]              # fixed at build in a native FMU: not this probe's refusal
         f.exitInitializationMode()
         f.doStep(currentCommunicationPoint=0.0, communicationStepSize=1.0)
-    attempt("step above max_internal_steps", over_cap)
-attempt("cancelStep", lambda f: f.cancelStep())
-attempt("getDirectionalDerivative", lambda f: f.getDirectionalDerivative([out_vr], [in_vr or out_vr], [1.0]))
-print(json.dumps({"results": results, "slowest_call_s": slowest, "nonfinite_ok": nonfinite}))
+    call("step above max_internal_steps", "any", over_cap, "init")
+for name, action in (("fmi2CancelStep", lambda f: f.cancelStep()),
+                     ("fmi2GetDirectionalDerivative",
+                      lambda f: f.getDirectionalDerivative([out_vr], [in_vr or out_vr], [1.0])),
+                     ("fmi2SetRealInputDerivatives",
+                      lambda f: f.setRealInputDerivatives([in_vr or out_vr], [1], [1.0])),
+                     ("fmi2GetRealOutputDerivatives", lambda f: f.getRealOutputDerivatives([out_vr], [1]))):
+    call(name, "refuse", action)
+# extreme parameter values: whatever the model says, never a crash, a hang, NaN with OK or an internal error
+EXTREMES = {"Real": (-1.0, 0.0, 1e308), "Integer": (-1, 2**31 - 1), "String": ("",)}
+for kind, values in EXTREMES.items():
+    for v in variables(PATH, kind, "parameter")[:2 if QUICK else None]:
+        for value in values[:1 if QUICK else None]:
+            def extreme(f, v=v, value=value):
+                f.set(v.name, value)
+                f.exitInitializationMode()
+                for name in f.inputs[:3]:               # a load, so that the outputs depend on the parameter
+                    f.set(name, 0.5)
+                return step_and_read(f)
+            call(f"parameter {v.name} = {value!r}", "any", extreme, "init")
+main()
 """
 
 CYCLES = r"""
@@ -165,16 +209,10 @@ def python(code: str, *args: str, timeout: float = 600) -> subprocess.CompletedP
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=timeout)
 
 
-def battery(fmu: Path) -> dict:
-    """The bad values and calls of BATTERY on ``fmu``: {"results": [(label, status)], "by_status": Counter,
-    "ok_labels", "slowest_call_s", "nonfinite_ok"}, or {"crashed": exit status, "stderr"}."""
-    out = python(BATTERY, str(fmu))
-    if out.returncode != 0:
-        return {"crashed": out.returncode, "stderr": out.stderr[-400:]}
-    data = json.loads(out.stdout.splitlines()[-1])
-    data["by_status"] = Counter(STATUS.get(status, str(status)) for _, status in data["results"])
-    data["ok_labels"] = sorted({label for label, status in data["results"] if status == 0})
-    return data
+def battery(fmu: Path, *, quick: bool = False, item_timeout: float = 60.0) -> list[dict]:
+    """The bad values and calls of BATTERY on ``fmu``, each on a fresh instance: one result per call
+    (flexfmu.fmi.diagnostics_runner: status, expect, messages; crash and hang counted per call)."""
+    return run_resumable(BATTERY, {"fmu": str(fmu), "quick": quick}, item_timeout=item_timeout)
 
 
 def cycles(fmu: Path, n: int) -> tuple[int, int]:
@@ -186,14 +224,19 @@ def cycles(fmu: Path, n: int) -> tuple[int, int]:
     return early, late
 
 
-def exit_stress(fmus: list[Path], runs: int) -> Counter:
+def exit_stress(fmus: list[Path], runs: int, timeout: float = 600) -> Counter:
     """``runs`` host processes of EXIT on ``fmus`` beside a CPU-bound one, alternating refused calls and
-    unfreed instances: how many ended each way ("exit 0, clean", else the exit status and stderr)."""
+    unfreed instances: how many ended each way ("exit 0, clean", a hang after ``timeout`` s, else the exit status and
+    stderr)."""
     burner = subprocess.Popen([sys.executable, "-c", "while True: pass"])     # CPU load beside the runs
     codes = Counter()
     try:
         for run in range(runs):
-            out = python(EXIT, *map(str, fmus), str(run % 2), str((run // 2) % 2))
+            try:
+                out = python(EXIT, *map(str, fmus), str(run % 2), str((run // 2) % 2), timeout=timeout)
+            except subprocess.TimeoutExpired:
+                codes[f"hang: no exit within {timeout:.0f} s"] += 1
+                continue
             clean = out.returncode == 0 and "done" in out.stdout and not any(
                 bad in out.stderr for bad in ("corrupted", "Segmentation", "double free", "Fatal Python"))
             codes["exit 0, clean" if clean else f"exit {out.returncode}: {out.stderr[-200:]}"] += 1
