@@ -29,10 +29,15 @@ def deadlock():
 def refused():
     return {"status": "Error", "messages": ["refused"]}
 
+def noisy():
+    print("RuntimeWarning: overflow", file=sys.stderr)
+    return {"status": "OK"}
+
 item("first", "any", fine)
 item("crashes", "any", segfault)
 item("hangs", "any", deadlock)
 item("after the hang", "refuse", refused)
+item("noisy", "any", noisy)
 item("last", "any", fine)
 main()
 '''
@@ -41,9 +46,12 @@ main()
 def test_a_crash_and_a_hang_cost_one_item_each_and_the_run_goes_on():
     results = run_resumable(SCRIPT, {}, item_timeout=3.0, startup_timeout=60.0)
     assert [(r["label"], r["status"]) for r in results] == [
-        ("first", "OK"), ("crashes", "crash"), ("hangs", "hang"), ("after the hang", "Error"), ("last", "OK")]
+        ("first", "OK"), ("crashes", "crash"), ("hangs", "hang"), ("after the hang", "Error"), ("noisy", "OK"),
+        ("last", "OK")]
     assert "exit status -11" in results[1]["detail"]          # the signal, as subprocess reports it
     assert "no answer in 3 s" in results[2]["detail"]
+    assert results[4]["stderr"] == "RuntimeWarning: overflow"  # what a call printed on the host's stderr, kept
+    assert "stderr" not in results[0] and "stderr" not in results[5]
 
 
 def test_a_child_that_dies_before_its_first_item_is_one_start_up_crash():

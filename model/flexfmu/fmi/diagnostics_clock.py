@@ -1,9 +1,10 @@
 """Large start times, probed in a child process (flexfmu.fmi.diagnostics_runner): fmi2SetupExperiment at 1e6 s and
 1e9 s, then steps as hosts compute them.  docs/fmu.md ("Errors", "Step sizes a host passes"): the FMU's clock is the
 host's last communication point plus its step, so fmi2LastSuccessfulTime equals the host's time within 16 eps |t|;
-a skipped or a repeated step is refused.  The hosts: one passing h = t(k+1) - t(k) with t(k) = t0 + k h (fmpy's
-simulate_fmu, libcosim, fmusim), one passing the constant h; the latter's outputs from t0 must equal those of a run
-from 0 (the models are time-invariant: only the steps enter, and they are the same)."""
+a skipped or a repeated step is refused; a rollback with fmi2SetFMUstate steps again to the same outputs.  The
+hosts: one passing h = t(k+1) - t(k) with t(k) = t0 + k h (fmpy's simulate_fmu, libcosim, fmusim), one passing the
+constant h; the latter's outputs from t0 must equal those of a run from 0 (the models are time-invariant: only the
+steps enter, and they are the same)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -74,6 +75,26 @@ def off_step_item(t0, label, point):
     item(f"t0 = {t0:g}: {label}", "refuse", lambda: probe(PATH, action, start_time=t0))
 
 
+def rollback_item(t0):
+    def action(h):
+        loaded(h)
+        times = host_times(t0)
+        run_steps(h, times[:-1], True)
+        state = h.getFMUstate()
+        h.doStep(currentCommunicationPoint=times[-2], communicationStepSize=times[-1] - times[-2])
+        first = h.get()
+        h.setFMUstate(state)
+        h.freeFMUstate(state)
+        status, clock = h.clock()
+        if clock != times[-2] and not abs(clock - times[-2]) <= CLOCK_ULPS * EPS * abs(times[-2]):
+            raise Wrong(f"after the rollback fmi2LastSuccessfulTime is {clock!r}, the state was taken at {times[-2]!r}")
+        h.doStep(currentCommunicationPoint=times[-2], communicationStepSize=times[-1] - times[-2])
+        if h.get() != first:
+            raise Wrong("the step taken again after fmi2SetFMUstate gives other outputs than the first time")
+    item(f"t0 = {t0:g}: a rollback with fmi2SetFMUstate and the last step again, equal bit for bit", "ok",
+         lambda: probe(PATH, action, start_time=t0))
+
+
 def same_run_item(t0):
     def run_from(start):
         h = Host(PATH, "same")
@@ -109,6 +130,7 @@ for t0 in CONFIG["start_times"]:
     clock_steps_item(t0)
     off_step_item(t0, "a skipped step (t(N) + h)", lambda times: times[-1] + H)
     off_step_item(t0, "a repeated step (t(N - 1))", lambda times: times[-2])
+    rollback_item(t0)
     if CONFIG["compare"]:
         same_run_item(t0)
 main()

@@ -11,7 +11,8 @@ HOST defines, in the child:
 - ``item(label, expect, run)``: one probe; ``probe(path, action, level=...)`` runs ``action(host)`` on a fresh
   instance and returns the outcome: the worst status of the action's calls, non-finite values returned, messages
   with "internal error", the error messages, and what the action found wrong (``raise Wrong(text)``).
-- ``main()``: prints {"n": N}, then {"begin": i, "label"} and the result of each item from CONFIG["start"] on.
+- ``main()``: prints {"n": N}, then {"begin": i, "label"} and the result of each item from CONFIG["start"] on (with
+  "stderr_at", the size of the child's stderr file before the call, when the call printed there).
 - State helpers: ``state_header`` and ``restamp_crc`` (the layout of tests/fmu_helpers.py: "FLEXFMU-STATE\\n",
   u32 format, u32 runtime, u32 FMI state, u64 payload size, u32 CRC-32 of every byte after it, u32 GUID length,
   the GUID, the payload).
@@ -233,14 +234,26 @@ def item(label, expect, run):
     ITEMS.append((label, expect, run))
 
 
+def _stderr_size():
+    try:
+        return os.fstat(2).st_size
+    except OSError:
+        return 0
+
+
 def main():
     say(n=len(ITEMS))
     for i in range(CONFIG.get("start", 0), len(ITEMS)):
         label, expect, run = ITEMS[i]
         say(begin=i, label=label)
+        sys.stderr.flush()
+        stderr_at = _stderr_size()
         tic = time.perf_counter()
         out = run()
         out.update(i=i, label=label, expect=expect, seconds=round(time.perf_counter() - tic, 4))
+        sys.stderr.flush()
+        if _stderr_size() > stderr_at:          # the call printed on the host's stderr: the parent reads it
+            out["stderr_at"] = stderr_at
         say(**out)
 
 

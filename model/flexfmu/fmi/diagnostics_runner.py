@@ -61,6 +61,12 @@ def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT_BYTES, MEMORY_LIMIT_BYTES))
 
 
+def _written_since(path: str, offset: int, limit: int = 300) -> str:
+    with open(path, encoding="utf-8", errors="replace") as f:
+        f.seek(offset)
+        return f.read(limit).strip()
+
+
 def run_resumable(script: str, config: dict, *, item_timeout: float = 60.0, startup_timeout: float = 180.0,
                   env: dict | None = None) -> list[dict]:
     """Every item's result of ``script`` (run as ``python -c script CONFIG_JSON``; CONFIG gains "start": the first
@@ -122,6 +128,8 @@ def _run_resumable(script, config, item_timeout, startup_timeout, env) -> list[d
                 elif "begin" in message:
                     current = {"i": message["begin"], "label": message["label"]}
                 elif "i" in message:
+                    if "stderr_at" in message:   # what the call printed on the host's stderr (e.g. numpy warnings)
+                        message["stderr"] = _written_since(err_path, message.pop("stderr_at"))
                     results.append(message)
                     current = None
             process.stdout.close()
