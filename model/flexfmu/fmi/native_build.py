@@ -6,6 +6,8 @@ Layout of a native FMU:
 
     modelDescription.xml          needsExecutionTool="false", SourceFiles listed
     binaries/linux64/<id>.so      compiled here with the system C compiler (flexfmu.native.compiler)
+    binaries/win64/<id>.dll       cross-compiled with MinGW-w64, when installed (flexfmu.native.compiler.PLATFORMS)
+    binaries/aarch64-linux/<id>.so  cross-compiled with gcc-aarch64-linux-gnu, when installed
     resources/flexfmu_model.bin   the model (flexfmu.fmi.model_file)
     resources/flexfmu_build.json  flexfmu version, runtime "native", model, kind, GUID, the parameters frozen
     sources/                      every C source and header of the binary, fmi2 headers, CMakeLists.txt, README.md
@@ -25,6 +27,7 @@ import shlex
 import tempfile
 import threading
 import uuid
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from xml.etree import ElementTree as ET
@@ -180,13 +183,22 @@ def source_files() -> dict[str, Path]:
 
 
 def compile_binary() -> bytes:
-    """The shared library of the LTI kind, compiled once per process and source digest with the system C compiler
-    (flexfmu.native.compiler: IEEE flags, no fast-math)."""
+    """The linux64 shared library of the native kinds (``compile_binaries``)."""
+    return compile_binaries()[0]["linux64"]
+
+
+def compile_binaries() -> tuple[dict[str, bytes], dict[str, str]]:
+    """({platform: shared library}, {platform: what to install}): the native kinds' library for every platform of
+    flexfmu.native.compiler.PLATFORMS whose compiler is installed (linux64 always: the system C compiler; win64 and
+    aarch64-linux cross-compiled, in parallel), each compiled once per process and source digest with the IEEE flags
+    (no fast-math, no FMA contraction), and the platforms left out for want of their compiler."""
     import platform
     import sys
+    from concurrent.futures import ThreadPoolExecutor
 
     from flexfmu.fmi.runtime import RuntimeBuildError
-    from flexfmu.native.compiler import KERNEL_FLAGS, compile_shared
+    from flexfmu.native.compiler import (KERNEL_FLAGS, PLATFORMS, compile_shared, find_compiler, install_hint,
+                                         platform_compiler)
     if not (sys.platform.startswith("linux") and platform.machine() in ("x86_64", "AMD64")):
         raise RuntimeBuildError(f"native FMUs are built with a linux64 binary, not on {sys.platform}/"
                                 f"{platform.machine()}: build the FMU on Linux x86-64, then rebuild its binary for "
@@ -195,22 +207,33 @@ def compile_binary() -> bytes:
     digest = hashlib.sha256(" ".join(KERNEL_FLAGS).encode())
     for name in sorted(files):
         digest.update(name.encode() + files[name].read_bytes())
-    key = digest.hexdigest()
+    compilers = {p.name: platform_compiler(p) for p in PLATFORMS}
+    compilers["linux64"] = find_compiler()              # none: CompilerError saying what to install
+    missing = {p.name: install_hint(p) for p in PLATFORMS if compilers[p.name] is None}
+    wanted = [p for p in PLATFORMS if compilers[p.name] is not None]
+    keys = {p.name: hashlib.sha256(digest.digest() + f"{p}{compilers[p.name]}".encode()).hexdigest() for p in wanted}
+
+    def compile_for(p) -> bytes:
+        with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
+            out = compile_shared([files[n] for n in (*_FRONT, *_KERNELS)], Path(tmp) / f"fmu{p.suffix}",
+                                 include_dirs=(FMI_CSRC, _fmi2_headers()),
+                                 extra_flags=("-fvisibility=hidden", "-Wno-format-truncation", *p.flags),
+                                 libraries=p.libraries, compiler=compilers[p.name])
+            return out.read_bytes()
+
     with _COMPILE_LOCK:
-        if key not in _COMPILED:
-            with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
-                out = compile_shared([files[n] for n in (*_FRONT, *_KERNELS)], Path(tmp) / "fmu.so",
-                                     include_dirs=(FMI_CSRC, _fmi2_headers()),
-                                     extra_flags=("-fvisibility=hidden", "-Wno-format-truncation"),
-                                     libraries=("m", "pthread", "dl"))
-                _COMPILED[key] = out.read_bytes()
-        return _COMPILED[key]
+        todo = [p for p in wanted if keys[p.name] not in _COMPILED]
+        with ThreadPoolExecutor(max_workers=max(1, len(todo))) as pool:
+            for p, library in zip(todo, pool.map(compile_for, todo)):
+                _COMPILED[keys[p.name]] = library
+        return {p.name: _COMPILED[keys[p.name]] for p in wanted}, missing
 
 
 CMAKE = """# Rebuild the binary of this native FMU for your platform (README.md beside this file):
 #   cmake -S sources -B build -DCMAKE_BUILD_TYPE=Release
 #   cmake --build build --config Release
-# run in the unzipped FMU's folder: the library lands in binaries/<platform>/ (win64, darwin64, linux64).
+# run in the unzipped FMU's folder: the library lands in binaries/<platform>/ (win64, darwin64, linux64; another
+# folder with -DFMI_PLATFORM=..., e.g. aarch64-linux).
 cmake_minimum_required(VERSION 3.13)
 project(flexfmu_native_fmu C)
 set(MODEL_IDENTIFIER "{name}")
@@ -227,8 +250,15 @@ else()
   find_package(Threads REQUIRED)
   target_link_libraries(${{MODEL_IDENTIFIER}} PRIVATE m Threads::Threads ${{CMAKE_DL_LIBS}})
 endif()
+if(MINGW)
+  # MinGW's C99 printf family (not msvcrt's), libgcc linked in: the DLL needs no DLL beyond Windows' own
+  target_compile_definitions(${{MODEL_IDENTIFIER}} PRIVATE __USE_MINGW_ANSI_STDIO=1)
+  target_link_options(${{MODEL_IDENTIFIER}} PRIVATE -static-libgcc)
+endif()
 
-if(WIN32)
+if(FMI_PLATFORM)
+  # given on the command line
+elseif(WIN32)
   if(CMAKE_SIZEOF_VOID_P EQUAL 8)
     set(FMI_PLATFORM win64)
   else()
@@ -270,7 +300,14 @@ Unzip the FMU, then in its folder (CMake >= 3.13 and a C compiler):
     cmake --build build --config Release
 
 The library is written to `binaries/<platform>/` (`win64/{name}.dll`, `darwin64/{name}.dylib`,
-`linux64/{name}.so`). Zip the folder's content again (modelDescription.xml at the top) as `{name}.fmu`.
+`linux64/{name}.so`; `-DFMI_PLATFORM=NAME` for another folder). Zip the folder's content again
+(modelDescription.xml at the top) as `{name}.fmu`.
+
+The FMU came with the binaries its build machine could make: `linux64`, and, when its cross compilers were
+installed, `win64` (MinGW-w64) and `aarch64-linux` (gcc-aarch64-linux-gnu); `documentation/index.html` says which.
+FMI 2.0 names no folder for ARM Linux and its importers there (fmpy, fmusim, FMI Library) load `binaries/linux64`:
+on such a machine copy `binaries/aarch64-linux/{name}.so` over `binaries/linux64/{name}.so`, or rebuild (CMake
+writes `linux64` on any Linux).
 
 - **Windows (MSVC)**: a "x64 Native Tools Command Prompt for VS" (Visual Studio 2015 or later: C99 designated
   initialisers, `snprintf`), then the two commands above (the Visual Studio generator is the default).
@@ -290,7 +327,7 @@ Built with flexfmu {version}; model-file format version {format_version}.
 
 
 # ---------------------------------------------------------------------------------------------- documentation
-def _documentation(source: NativeSource, frozen: dict) -> str:
+def _documentation(source: NativeSource, frozen: dict, built=("linux64",), missing=None) -> str:
     """documentation/index.html: the model, the runtime, the frozen and runtime parameters, the variables."""
     info = source.spec.variable_info
     rows = "\n".join(f"<tr><td><code>{html.escape(v)}</code></td><td>{html.escape(info[v][0])}</td>"
@@ -306,7 +343,8 @@ def _documentation(source: NativeSource, frozen: dict) -> str:
 <p>{html.escape(source.description)}.</p>
 <p>A <b>native</b> flexfmu FMU (FMI 2.0 co-simulation): its binary is C only and needs no Python. The model is
 <code>resources/{MODEL_FILE}</code>; <code>sources/</code> holds every C file of the binary and a CMakeLists.txt to
-rebuild it for Windows or macOS (<code>sources/README.md</code>).</p>
+rebuild it for another platform (<code>sources/README.md</code>).</p>
+{_platforms_html(source.name, built, missing or dict())}
 <h2>Parameters fixed at build</h2>
 <p>Another value than these is refused (fmi2Error, naming the parameter); rebuild with
 <code>{html.escape(_rebuild_text(source))}</code>.</p>
@@ -324,6 +362,23 @@ rebuild it for Windows or macOS (<code>sources/README.md</code>).</p>
 """
 
 
+def _platforms_html(name: str, built, missing: dict) -> str:
+    """The documentation's paragraph on the binaries this FMU has and those it lacks."""
+    from flexfmu.native.compiler import PLATFORMS
+    folders = ", ".join(f"<code>binaries/{p.name}/{html.escape(name)}{p.suffix}</code>" for p in PLATFORMS
+                        if p.name in built)
+    text = f"<p>Binaries: {folders}.</p>"
+    if "aarch64-linux" in built:
+        text += ("<p>FMI 2.0 names no folder for ARM Linux, and its importers there (fmpy, fmusim, FMI Library) load "
+                 "<code>binaries/linux64</code>: on such a machine copy the <code>aarch64-linux</code> library over "
+                 "the <code>linux64</code> one, or rebuild from <code>sources/</code>.</p>")
+    if missing:
+        lacking = "; ".join(f"{html.escape(k)} ({html.escape(v)})" for k, v in missing.items())
+        text += (f"<p>Not built, for want of the cross compiler on the machine that built this FMU: {lacking}. "
+                 "Rebuild from <code>sources/</code> on that platform.</p>")
+    return text
+
+
 def _rebuild_text(source: NativeSource) -> str:
     return " ".join([source.rebuild, *(f"--set {k}={shlex.quote(v)}" for k, v in source.rebuild_settings.items()),
                      "--set NAME=VALUE"])
@@ -336,6 +391,7 @@ def build_native_fmu(source: NativeSource, target) -> Path:
 
     from flexfmu import __version__
     from flexfmu.fmi.runtime import RuntimeBuildError
+    from flexfmu.native.compiler import PLATFORMS, PlatformsMissingWarning
 
     target = Path(target)
     guid = "{" + str(uuid.uuid4()) + "}"
@@ -346,16 +402,22 @@ def build_native_fmu(source: NativeSource, target) -> Path:
         built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
         frozen = {k: v for k, v in built.items() if k not in runtime_names}
         model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)
-        binary = compile_binary()
+        binaries, missing = compile_binaries()
+        if missing:
+            warnings.warn(PlatformsMissingWarning(
+                f"{target.name}: built without the binaries for " + "; ".join(
+                    f"{k} ({v})" for k, v in missing.items()) + ": the FMU runs on " + ", ".join(binaries)),
+                stacklevel=2)
         info = {"version": __version__, "runtime": "native", "model": source.name, "kind": source.kind, "guid": guid,
                 "format_version": FORMAT_VERSION, "parameters_fixed": frozen,
-                "runtime_parameters": sorted(runtime_names), **source.info}
+                "runtime_parameters": sorted(runtime_names), "platforms": sorted(binaries),
+                "platforms_missing": missing, **source.info}
         members = {
             "modelDescription.xml": description,
-            f"binaries/linux64/{source.name}.so": binary,
+            **{f"binaries/{p.name}/{source.name}{p.suffix}": binaries[p.name] for p in PLATFORMS if p.name in binaries},
             f"resources/{MODEL_FILE}": model_file.read_bytes(),
             f"resources/{BUILD_INFO}": json.dumps(info, indent=1, default=str).encode(),
-            "documentation/index.html": _documentation(source, frozen).encode(),
+            "documentation/index.html": _documentation(source, frozen, binaries, missing).encode(),
             "sources/CMakeLists.txt": CMAKE.format(name=source.name, sources=" ".join((*_FRONT, *_KERNELS))).encode(),
             "sources/README.md": README.format(name=source.name, version=__version__,
                                                format_version=FORMAT_VERSION).encode(),

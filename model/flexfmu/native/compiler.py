@@ -3,6 +3,9 @@ ctypes, cached per source digest in ``<cache root>/native``) and for native FMUs
 
 The kernels are C99 with no dependency beyond libc/libm.  The flags keep IEEE semantics (no fast-math,
 no FMA contraction), so a kernel gives the same numbers wherever it is built with the same compiler.
+
+A native FMU's binary is also cross-compiled for the other PLATFORMS (Windows x86-64 with MinGW-w64, Linux aarch64)
+when their compilers are installed (``missing_platforms`` says which are not and what to install).
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 
 from flexfmu.errors import FlexfmuError
@@ -20,6 +24,57 @@ from flexfmu.errors import FlexfmuError
 CSRC = Path(__file__).resolve().parent / "csrc"
 #: IEEE arithmetic as written: the native FMU and the library must give the same numbers
 KERNEL_FLAGS = ("-std=c99", "-O2", "-fPIC", "-ffp-contract=off", "-fno-fast-math", "-Wall", "-Wextra")
+
+
+@dataclass(frozen=True)
+class Platform:
+    """A platform a native FMU's binary is built for: its folder under the FMU's binaries/, the C compiler on PATH
+    (None: the host's, ``find_compiler``), the library's suffix, the Debian package of the compiler, the flags
+    beyond KERNEL_FLAGS and the libraries linked."""
+
+    name: str
+    compiler: str | None
+    suffix: str
+    package: str
+    flags: tuple = ()
+    libraries: tuple = ("m", "pthread", "dl")
+
+
+#: linux64 and win64 are FMI 2.0's folder names; FMI 2.0 has none for ARM Linux (fmpy, fmusim and FMI Library load
+#: binaries/linux64 there too, the x86-64 name), so the aarch64 library goes to FMI 3.0's aarch64-linux
+PLATFORMS = (
+    Platform("linux64", None, ".so", "gcc"),
+    # -static-libgcc: no libgcc DLL beside it (it imports KERNEL32 and msvcrt only); MinGW's own C99 printf family
+    # (%zu, two-digit exponents as glibc's) instead of msvcrt's; GCC checks printf formats against msvcrt's, so
+    # -Wno-format here (the Linux builds check the same formats)
+    Platform("win64", "x86_64-w64-mingw32-gcc", ".dll", "gcc-mingw-w64-x86-64",
+             ("-static-libgcc", "-D__USE_MINGW_ANSI_STDIO=1", "-Wno-format"), ("m",)),
+    Platform("aarch64-linux", "aarch64-linux-gnu-gcc", ".so", "gcc-aarch64-linux-gnu"),
+)
+
+
+class PlatformsMissingWarning(UserWarning):
+    """A native FMU was built without some PLATFORMS' binaries: their cross compilers are not installed."""
+
+
+def platform_compiler(platform: Platform) -> str | None:
+    """The compiler of ``platform`` on PATH (the host's: ``find_compiler``), None when it is not installed."""
+    if platform.compiler is None:
+        try:
+            return find_compiler()
+        except CompilerError:
+            return None
+    return shutil.which(platform.compiler)
+
+
+def install_hint(platform: Platform) -> str:
+    """What to install for ``platform``'s compiler."""
+    return f"apt-get install {platform.package} (Debian/Ubuntu; it provides {platform.compiler or 'gcc'})"
+
+
+def missing_platforms() -> dict[str, str]:
+    """{platform name: what to install} for the PLATFORMS whose compiler is not on PATH."""
+    return {p.name: install_hint(p) for p in PLATFORMS if platform_compiler(p) is None}
 
 
 class CompilerError(FlexfmuError):
@@ -39,9 +94,10 @@ def find_compiler() -> str:
                         "e.g. `apt-get install gcc` (Debian/Ubuntu) or `xcode-select --install` (macOS)")
 
 
-def compile_shared(sources, output: Path, include_dirs=(), extra_flags=(), libraries=("m",)) -> Path:
-    """Compile C ``sources`` into the shared library ``output`` (written atomically)."""
-    cc = find_compiler()
+def compile_shared(sources, output: Path, include_dirs=(), extra_flags=(), libraries=("m",), compiler=None) -> Path:
+    """Compile C ``sources`` into the shared library ``output`` (written atomically) with ``compiler`` (a cross
+    compiler of PLATFORMS; default: the host's)."""
+    cc = compiler or find_compiler()
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(suffix=".so", dir=output.parent)
