@@ -11,7 +11,8 @@
 
 Set-up creates ``.venv`` and installs the project with its ``dev`` extra into it.
 It is skipped when ``pyproject.toml`` has not changed since the last install, so
-running either command twice is safe and fast.
+running either command twice is safe and fast.  On Debian/Ubuntu it also installs the
+SYSTEM_PACKAGES that are missing (with apt-get, when run as root; otherwise it names them).
 """
 from __future__ import annotations
 
@@ -27,6 +28,35 @@ VENV = ROOT / ".venv"
 STAMP = VENV / ".flexfmu-install-stamp"
 
 
+#: Debian packages beyond Python: the cross compilers of the native FMUs' win64 and aarch64-linux binaries
+#: (flexfmu.native.compiler.PLATFORMS; without them a native FMU is built for linux64 only) and what runs those
+#: binaries here (tests/test_fmu_platforms.py: Wine, qemu-user)
+SYSTEM_PACKAGES = ("gcc-mingw-w64-x86-64", "gcc-aarch64-linux-gnu", "wine", "wine64", "qemu-user")
+
+
+def ensure_system_packages() -> None:
+    """Install the SYSTEM_PACKAGES that are missing, with apt-get as root on Debian/Ubuntu; say which are missing
+    otherwise.  A failed install is reported, not fatal: the build and the tests then do without them."""
+    import shutil
+    if shutil.which("dpkg-query") is None:
+        return
+    missing = [p for p in SYSTEM_PACKAGES
+               if "install ok installed" not in subprocess.run(["dpkg-query", "-W", "-f=${Status}", p],
+                                                               capture_output=True, text=True).stdout]
+    if not missing:
+        return
+    if getattr(os, "geteuid", lambda: -1)() != 0 or shutil.which("apt-get") is None:
+        print(f"[tasks] not installed: {' '.join(missing)} (native FMUs get linux64 binaries only and their "
+              f"platform tests skip); as root: apt-get install {' '.join(missing)}", flush=True)
+        return
+    print(f"[tasks] apt-get install {' '.join(missing)}", flush=True)
+    env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+    status = subprocess.call(["apt-get", "update", "-qq"], env=env) or subprocess.call(
+        ["apt-get", "install", "-y", "-qq", "--no-install-recommends", *missing], env=env)
+    if status:
+        print(f"[tasks] apt-get failed (exit {status}); going on without {' '.join(missing)}", flush=True)
+
+
 def _venv_python() -> Path:
     return VENV / ("Scripts/python.exe" if os.name == "nt" else "bin/python")
 
@@ -39,6 +69,7 @@ def ensure_venv() -> Path:
     """Create .venv and install the project (editable, with dev extra) unless up to date."""
     if sys.version_info < (3, 11):
         sys.exit(f"flexfmu needs Python >= 3.11; this is {sys.version.split()[0]}")
+    ensure_system_packages()
     python = _venv_python()
     if not python.exists():
         print(f"[tasks] creating {VENV}", flush=True)
