@@ -36,13 +36,18 @@ class NaturalModes:
         return "\n".join([head, *rows])
 
 
-def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6) -> NaturalModes:
+def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6, progress: bool = False) -> NaturalModes:
     """The lowest ``n_modes`` natural modes: clamped as build_body's ``clamp`` ("file" or a node-set name),
-    or free (clamp None: elastic modes only)."""
+    or free (clamp None: elastic modes only).  Large models take the sparse block Lanczos solver (free:
+    modal_basis; clamped: flexfmu.linalg.sparse_modes beyond BEAM_MODES_DENSE_MAX_DOF free DOFs); ``progress`` shows
+    its converged modes on stderr."""
     from flexfmu.body.build import check_parts, clamped_dofs
     from flexfmu.core.io import validate_structure
+    from flexfmu.errors import ModalConvergenceError
+    from flexfmu.linalg.cutoffs import BEAM_MODES_DENSE_MAX_DOF
     from flexfmu.linalg.modal import solve_modes
     from flexfmu.linalg.modal_basis import mass_properties, modal_basis
+    from flexfmu.linalg.sparse_modes import lanczos_modes
 
     if not is_int(n_modes) or n_modes < 1:
         raise ParameterError("modes", f"{shown(n_modes)}", "an integer >= 1")
@@ -50,7 +55,7 @@ def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6) -> Natu
     mass = float(mass_properties(checked).mass)
     if clamp is None:
         check_parts(checked, np.zeros(0, dtype=np.int64), "free")
-        basis = modal_basis(checked, int(n_modes), damping_ratio=0.0)
+        basis = modal_basis(checked, int(n_modes), damping_ratio=0.0, progress=progress)
         return NaturalModes(structure.name, "free", "free: the six rigid-body modes left out",
                             np.asarray(basis.frequencies_hz, float), np.asarray(basis.flexible), mass)
     fixed, how = clamped_dofs(structure, clamp)
@@ -61,8 +66,13 @@ def natural_modes(structure: Structure, *, clamp=None, n_modes: int = 6) -> Natu
     K = sp.csr_matrix(checked.K)[free][:, free]
     M = sp.csr_matrix(checked.M)[free][:, free]
     try:
-        modes = solve_modes(K, M, int(n_modes))
-    except RuntimeError as exc:                    # SuperLU: "Factor is exactly singular"
+        if free.size > BEAM_MODES_DENSE_MAX_DOF and n_modes < free.size - 1:
+            modes = lanczos_modes(K, M, int(n_modes), progress=progress, label="modes")
+        else:
+            modes = solve_modes(K, M, int(n_modes))
+    except ModalConvergenceError:
+        raise
+    except RuntimeError as exc:                    # SuperLU: "Factor is exactly singular"; a zero-energy mode
         raise ParameterError("clamp", f"{how} leaves the body free to move ({exc})",
                              "clamps that hold every rigid-body motion") from None
     shapes = np.zeros((checked.n_dof, modes.shapes.shape[1]))

@@ -34,6 +34,7 @@ import scipy.sparse as sp
 
 from flexfmu.core import cache as _cache
 from flexfmu.core.blas import limited_for
+from flexfmu.core.progress import progress_bar
 from flexfmu.errors import ModalConvergenceError, ParameterError
 from flexfmu.core.io import validate_structure
 from flexfmu.linalg.cutoffs import BASIS_DENSE_MAX_DOF
@@ -242,7 +243,7 @@ def _project_out(Phi: np.ndarray, M, V: np.ndarray) -> np.ndarray:
 
 
 
-def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: float) -> np.ndarray:
+def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: float, progress=False) -> np.ndarray:
     """(n_dof, n) approximate lowest flexible eigenvectors of K phi = lambda M phi.
 
     dense:  flexfmu.linalg.modal.dense_low_modes on the full matrices (the inverted problem: eigh(K, M)
@@ -279,16 +280,19 @@ def _flexible_candidates(K, M, Phi: np.ndarray, n: int, method: str, sigma: floa
         X = solve(MX - MPhi @ (Phi.T @ MX))        # rhs without rigid part (P^T b)
         return X - Phi @ (MPhi.T @ X)               # result without rigid part (P x)
 
+    bar = progress_bar(n, "flexible modes", enabled=bool(progress), unit="mode")   # on stderr, after 1 s
     try:
         with _one_openblas_thread():
-            return _block_lanczos(apply_op, M, Phi, MPhi, n, KRYLOV_BLOCK, KRYLOV_RTOL, KRYLOV_MAX_DIM)
+            return _block_lanczos(apply_op, M, Phi, MPhi, n, KRYLOV_BLOCK, KRYLOV_RTOL, KRYLOV_MAX_DIM, bar.update_to)
     finally:
         close()
+        bar.close()
 
 
 
 def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
-                method: str = "auto", sigma: float = DEFAULT_SIGMA, cache: bool | None = None) -> ModalBasis:
+                method: str = "auto", sigma: float = DEFAULT_SIGMA, cache: bool | None = None,
+                progress: bool = False) -> ModalBasis:
     """Rigid-body modes plus the first ``n_flexible`` flexible modes of a free-free structure.
 
     n_flexible:     0 ... n_dof - 6; 0 gives a rigid body.
@@ -300,6 +304,7 @@ def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
                     False, or None (default) = for models of CACHE_MIN_DOF DOFs or more.  The key is
                     a digest of the structure's arrays (nodes, M, K), n_flexible, method, sigma and
                     the source of this module; the damping ratio is applied after the look-up.
+    progress:       show the sparse solve's converged modes on stderr (flexfmu.core.progress; solves over 1 s).
 
     Raises ParameterError naming ``n_flexible``, ``damping_ratio``, ``method``, ``sigma``, ``cache``,
     ``structure.*`` (see :func:`flexfmu.core.io.validate_structure`), ``structure.M`` if a rigid
@@ -323,7 +328,7 @@ def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
         parts = _from_cache(key[0], n_dof, n)
         if parts is None:
             s = validate_structure(structure)
-            parts = _compute(s, n, method, float(sigma))
+            parts = _compute(s, n, method, float(sigma), progress)
             _cache.store(_CACHE_KIND, key[0], {**parts, "method": np.array(parts["method"])})
     else:
         s = validate_structure(structure)
@@ -333,10 +338,10 @@ def modal_basis(structure: Structure, n_flexible: int, damping_ratio=0.05, *,
             key = _cache_key(s, n, method, float(sigma))
             parts = _from_cache(key[0], s.n_dof, n)
             if parts is None:
-                parts = _compute(s, n, method, float(sigma))
+                parts = _compute(s, n, method, float(sigma), progress)
                 _cache.store(_CACHE_KIND, key[0], {**parts, "method": np.array(parts["method"])})
         else:
-            parts = _compute(s, n, method, float(sigma))
+            parts = _compute(s, n, method, float(sigma), progress)
     omega = np.sqrt(parts["lam"])
     return ModalBasis(shapes=parts["shapes"], frequencies_hz=omega / (2.0 * np.pi),
                       stiffness=np.concatenate([np.zeros(N_RIGID), parts["lam"]]),
@@ -426,13 +431,13 @@ def _check_residuals(KPsi: np.ndarray, MPsi: np.ndarray, absK_absPsi: np.ndarray
             f"(max|K phi - omega^2 M phi| / max|K phi| = {np.max(residual[bad]):.3g} > {np.min(limit[bad]):.3g})")
 
 
-def _compute(s: Structure, n: int, method: str, sigma: float) -> dict:
+def _compute(s: Structure, n: int, method: str, sigma: float, progress=False) -> dict:
     """Rigid and flexible modes of a validated structure: the arrays of a ModalBasis except the damping."""
     with limited_for(s.n_dof):    # small models: BLAS threads only wait for cores (flexfmu.core.blas)
-        return _compute_modes(s, n, method, sigma)
+        return _compute_modes(s, n, method, sigma, progress)
 
 
-def _compute_modes(s: Structure, n: int, method: str, sigma: float) -> dict:
+def _compute_modes(s: Structure, n: int, method: str, sigma: float, progress=False) -> dict:
     K, M = s.K, s.M
     n_dof = s.n_dof
     Phi, A, mass, c, inertia = _rigid_orthonormal(s)
@@ -457,7 +462,8 @@ def _compute_modes(s: Structure, n: int, method: str, sigma: float) -> dict:
         used = method if method != "auto" else ("dense" if n_dof <= DENSE_LIMIT else "sparse")
         if used == "sparse" and n >= n_dof - N_RIGID - 1:
             used = "dense"                                   # (nearly) all modes: dense is exact and cheaper
-        V = _flexible_candidates(K, M, Phi, n, used, sigma)
+        # progress passed only when on: tests replace _flexible_candidates by six-argument functions
+        V = _flexible_candidates(K, M, Phi, n, used, sigma, **({"progress": True} if progress else {}))
         for _ in range(2):                                   # "twice is enough"
             V = _project_out(Phi, M, V)
         # Rayleigh-Ritz in the projected subspace: M-orthonormal, K-diagonal flexible modes.  The
