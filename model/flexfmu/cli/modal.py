@@ -7,10 +7,13 @@ import json
 from pathlib import Path
 
 from flexfmu.cli.model_file import add_model_options, load_user_model
+from flexfmu.core.checks import MAX_BEAM_DOFS, MAX_SOLID_DOFS, dof_limit, model_size_limit
 from flexfmu.ffr.assembly import BOUNDARY_HELP, BOUNDARY_PRESETS
 from flexfmu.errors import ParameterError
 from flexfmu.ffr.report import PAPER_SCENE, format_table, modal_analysis
-from flexfmu.ffr.scene import builtin_scene_names, load_scene
+from flexfmu.ffr.scene import beam_model_dofs, builtin_scene_names, load_scene
+
+_SMALLER_MESH = "a coarser mesh"
 
 
 def _is_scene(text: str) -> bool:
@@ -26,16 +29,46 @@ def _is_scene(text: str) -> bool:
         return True                     # load_scene reports what is wrong with it (nesting too deep included)
 
 
+def _check_beam_spec(text: str, limit) -> None:
+    """A beam:<scene> model spec (the free rod at reframe's 8 elements per segment) within ``limit``, checked as its
+    scene is read, before the model is built."""
+    from flexfmu.core.checks import path_exists_as
+    from flexfmu.reframe.models import BEAM_PREFIX, DEFAULT_ELEMENTS_PER_SEGMENT
+
+    name = text[len(BEAM_PREFIX):].strip() if text.startswith(BEAM_PREFIX) else None
+    if name is None or (name not in builtin_scene_names() and path_exists_as(name) != "file"):
+        return                                                 # not a beam spec, or load_structure names it
+    n_el = DEFAULT_ELEMENTS_PER_SEGMENT
+
+    def check(n_segments: int, scene=None) -> None:
+        dofs = 6 * (n_segments * n_el + 1) if scene is None else beam_model_dofs(scene, n_el)
+        limit.check(dofs, f"the beam model of {text} ({n_segments} segments at {n_el} elements per segment)", "MODEL",
+                    "a scene with fewer segments")
+
+    scene = load_scene(name, parameter="MODEL", check_size=check)
+    check(len(scene.points) - 1, scene)
+
+
 def _modal_structure(args: argparse.Namespace) -> int:
-    """Natural frequencies of an imported model: clamped (--clamp or the file's constraints) or free."""
+    """Natural frequencies of an imported model: clamped (--clamp or the file's constraints) or free.  The model's
+    size is checked against --max-dofs (default MAX_SOLID_DOFS) before a mesh is assembled, and the modes' progress
+    shown on stderr when the solve takes more than a second."""
     from flexfmu.body.build import clamp_from_text
     from flexfmu.body.modes import natural_modes
 
     if args.boundary is not None or args.elements_per_segment or args.rotary_inertia:
         raise ParameterError("boundary", "--boundary, --elements-per-segment and --rotary-inertia are scene options",
                              "a scene, or --clamp for a model file")
-    structure = load_user_model(args)
-    modes = natural_modes(structure, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes)
+    if str(args.scene).startswith("beam:"):
+        _check_beam_spec(str(args.scene), dof_limit(MAX_BEAM_DOFS, args.max_dofs, "--max-dofs"))
+    limit = dof_limit(MAX_SOLID_DOFS, args.max_dofs, "--max-dofs")
+    with model_size_limit(limit, "MODEL", _SMALLER_MESH, label="flexfmu modal"):     # meshes: before assembly
+        structure = load_user_model(args)
+    if not str(args.scene).startswith("beam:"):        # files read assembled (.npz, MAPDL .full), paper_plate
+        limit.check(structure.n_dof, f"model {args.scene} ({structure.n_nodes:,} nodes x "
+                    f"{structure.dofs_per_node} DOFs)", "MODEL", _SMALLER_MESH)
+    modes = natural_modes(structure, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes,
+                          progress=True)
     if args.json:
         print(json.dumps({"model": str(args.scene), "name": structure.name, "kind": modes.kind,
                           "clamp": modes.clamp, "frequencies_hz": [float(f) for f in modes.frequencies_hz],
@@ -56,10 +89,17 @@ def _modal(args: argparse.Namespace) -> int:
         if getattr(args, option) is not None:
             raise ParameterError(option.replace("_", "-"), "is an option of model files, not of scenes",
                                  "--boundary for a scene")
-    scene = load_scene(args.scene)
+    limit = dof_limit(MAX_BEAM_DOFS, args.max_dofs, "--max-dofs")
+    first = args.elements_per_segment or 2                     # the refinement starts at 2 elements per segment
+
+    def check(n_segments: int) -> None:                        # as the scene is read: its segments alone
+        limit.check(6 * (n_segments * first + 1), f"the beam model of scene {args.scene} ({n_segments} segments at "
+                    f"{first} elements per segment)", "scene", "a scene with fewer segments")
+
+    scene = load_scene(args.scene, check_size=check)
     boundary = args.boundary or "scene"
     result = modal_analysis(scene, boundary, n_modes=args.modes, elements_per_segment=args.elements_per_segment,
-                            rotary_inertia=args.rotary_inertia)
+                            rotary_inertia=args.rotary_inertia, dof_limit=limit)
     if args.json:
         model = result.model
         print(json.dumps({
@@ -71,6 +111,7 @@ def _modal(args: argparse.Namespace) -> int:
             "n_dof_unconstrained": int(model.n_dof),
             "elements_per_segment": result.elements_per_segment,
             "converged": result.converged,
+            "refinement_stopped": result.stopped or None,
             "rotary_inertia": bool(args.rotary_inertia),
         }))
     else:
@@ -114,6 +155,10 @@ def add_parser(sub) -> None:
     modal.add_argument("--modes", type=int, default=6, metavar="K", help="number of modes (default 6)")
     modal.add_argument("--rotary-inertia", action="store_true", help="include rotary inertia of bending")
     modal.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    modal.add_argument("--max-dofs", type=int, default=None, metavar="N",
+                       help=f"largest model set up, in DOFs (default: {MAX_SOLID_DOFS:,} for a model file, "
+                            f"{MAX_BEAM_DOFS:,} per mesh of a scene: the sizes that fit 60 s and 8 GB on the reference "
+                            "machine, docs/performance.md; or the environment variable FLEXFMU_MAX_DOFS)")
     modal.set_defaults(func=_modal)
 
 

@@ -9,8 +9,11 @@ overflow cheaply on the hot path, naming the culprit only on failure.
 """
 from __future__ import annotations
 
+import contextvars
 import math
 import numbers
+import os
+import sys
 
 import numpy as np
 
@@ -183,3 +186,94 @@ def non_finite(name: str, what: str, value=None, unit: str = "") -> NonFiniteErr
              else "its value" if value is None else repr(value))
     return NonFiniteError(name, f"{shown} makes {what} overflow (not finite); allowed: a smaller magnitude, "
                                 "within the model's floating-point range")
+
+
+# ------------------------------------------------------------------------------------------- model size limits
+#: The largest models flexfmu sets up unless told otherwise, in degrees of freedom (DOFs): the size whose set-up
+#: fits 60 s of wall time and 8 GB of memory by the growth fitted to set-up times measured on the reference machine
+#: (benchmarks/model_size_limits.py; docs/performance.md, "Model size limits", has the measurements and the fits).
+#: FFR beam models (6 DOFs per node): FFRBeam's, ReframeBody's beam:<scene>, and each mesh of flexfmu modal's
+#: refinement of a scene.  A scene's model has at least 6 x (segments + 1) DOFs (one element per segment), so a scene
+#: with too many segments is refused as soon as its points are counted.
+MAX_BEAM_DOFS = 60_000
+#: Solid models of ``flexfmu modal`` (a mesh's 3 DOFs per node, checked before the mesh is assembled; other model
+#: files when they are read): assembly, model checks and the lowest modes.
+MAX_SOLID_DOFS = 150_000
+#: The environment variable that replaces both limits, a whole number of DOFs, where no option does: the FMUs
+#: FFRBeam and ReframeBody and library calls (the CLI's ``--max-dofs`` wins over it).
+MAX_DOFS_ENV = "FLEXFMU_MAX_DOFS"
+#: What a limit may be set to: 1 DOF .. 1e12 (beyond any memory).
+MAX_DOFS_RANGE = (1, 10**12)
+#: Models at least this large announce their assembly on stderr while a limit is in force (model_size_limit):
+#: ~10 s of scikit-fem assembly and more on the reference machine.
+ANNOUNCE_ASSEMBLY_DOFS = 30_000
+
+
+class DofLimit:
+    """A limit on a model's DOFs and how to raise it (``raise_with``: the option or environment variable)."""
+
+    def __init__(self, limit: int, raise_with: str, default: bool):
+        self.limit, self.raise_with, self.default = int(limit), raise_with, default
+
+    def check(self, n_dof: int, what: str, parameter: str, smaller: str) -> None:
+        """ParameterError naming ``parameter`` when ``n_dof`` exceeds the limit: "``what`` has N DOFs" (``what``: the
+        model and how its size comes about), the limit and what to do (``smaller``: how to make the model smaller)."""
+        if int(n_dof) <= self.limit:
+            return
+        basis = ("the size whose set-up fits 60 s and 8 GB on the reference machine, docs/performance.md"
+                 if self.default else "the limit set")
+        raise ParameterError(parameter, f"{what} has {int(n_dof):,} DOFs, more than the {self.limit:,} DOFs allowed "
+                             f"({basis})", f"at most {self.limit:,} DOFs: {smaller}; or raise the limit with "
+                             f"{self.raise_with}")
+
+
+def dof_limit(default: int, override=None, option: str | None = None) -> DofLimit:
+    """The DOF limit in force: ``override`` (the value of the option named ``option``, e.g. the CLI's --max-dofs) if
+    not None, else the environment variable MAX_DOFS_ENV if set, else ``default``; ParameterError naming the option
+    or the variable for a value that is not a whole number in MAX_DOFS_RANGE."""
+    lo, hi = MAX_DOFS_RANGE
+    allowed = f"a whole number of DOFs, {lo} .. {hi:.0e}"
+    variable = f"the environment variable {MAX_DOFS_ENV}=N"
+    raise_with = f"{option} N or {variable}" if option else variable
+    if override is not None:
+        return DofLimit(require_int(override, option or "max_dofs", lo, hi, allowed), raise_with, False)
+    text = os.environ.get(MAX_DOFS_ENV)
+    if text is None or not text.strip():
+        return DofLimit(default, raise_with, True)
+    try:
+        value = int(text.strip().replace("_", ""))
+    except ValueError:
+        raise ParameterError(MAX_DOFS_ENV, f"{shown(text)} is not a whole number", allowed) from None
+    return DofLimit(require_int(value, MAX_DOFS_ENV, lo, hi, allowed), raise_with, False)
+
+
+#: (DofLimit, parameter, smaller, label, stream) of the model_size_limit in force, or None
+_ASSEMBLY_LIMIT: contextvars.ContextVar = contextvars.ContextVar("flexfmu_assembly_limit", default=None)
+
+
+class model_size_limit:
+    """Context in which the importers refuse a mesh above ``limit`` (a DofLimit) before assembling it (and announce
+    the assembly of a large one on ``stream``, prefixed with ``label``).  Outside it they assemble any size: the
+    library's default; ``flexfmu modal`` sets one."""
+
+    def __init__(self, limit: DofLimit, parameter: str, smaller: str, label: str = "flexfmu", stream=None):
+        self.value = (limit, parameter, smaller, label, stream)
+
+    def __enter__(self):
+        self._token = _ASSEMBLY_LIMIT.set(self.value)
+        return self
+
+    def __exit__(self, *exc):
+        _ASSEMBLY_LIMIT.reset(self._token)
+
+
+def check_assembly_size(n_dof: int, what: str) -> None:
+    """Called by the importers before assembling a model of ``n_dof`` DOFs (``what``: the file and its nodes):
+    ParameterError above the limit of the model_size_limit in force, nothing outside one."""
+    active = _ASSEMBLY_LIMIT.get()
+    if active is None:
+        return
+    limit, parameter, smaller, label, stream = active
+    limit.check(n_dof, what, parameter, smaller)
+    if n_dof >= ANNOUNCE_ASSEMBLY_DOFS:
+        print(f"{label}: assembling {what} ({int(n_dof):,} DOFs) ...", file=stream or sys.stderr, flush=True)

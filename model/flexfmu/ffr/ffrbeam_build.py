@@ -8,12 +8,13 @@ from functools import lru_cache
 import numpy as np
 
 from flexfmu.core.blas import limited_for
+from flexfmu.core.checks import MAX_BEAM_DOFS, dof_limit, shown
 from flexfmu.errors import require
 from flexfmu.ffr.assembly import boundary_clamps, build_beam_model
 from flexfmu.ffr.dynamics import FFRBeamDynamics
 from flexfmu.ffr.ffrbeam_config import N_REPORTED_FREQUENCIES, FFRBeamConfig, _check_config
 from flexfmu.ffr.mesh_choice import choose_elements_per_segment
-from flexfmu.ffr.scene import check_arc_length, load_scene
+from flexfmu.ffr.scene import beam_model_dofs, check_arc_length, load_scene
 from flexfmu.linalg.modal import solve_modes
 from flexfmu.sizing.beam import (ModelChoice, StaticCorrection, TruncationChoice, ffr_load_patterns,
                                  ffr_static_correction, ffr_truncation_errors)
@@ -77,11 +78,25 @@ def _truncated_modes(model, cfg: FFRBeamConfig, load_s: float, sensor_s: float, 
     raise AssertionError("unreachable: the last round computes every mode")
 
 
+def _check_scene_size(limit, cfg: FFRBeamConfig, n_segments: int, scene=None, extra=()) -> None:
+    """The scene's model within ``limit`` (a flexfmu.core.checks.DofLimit), before it is built: from the count of
+    segments alone while the scene is read (``scene`` None), then with its extra nodes; elements_per_segment = 0 is
+    counted at one element per segment, the fewest the automatic mesh chooses (each of its meshes is checked)."""
+    n_el = int(cfg.elements_per_segment) or 1
+    dofs = 6 * (n_segments * n_el + 1) if scene is None else beam_model_dofs(scene, n_el, extra)
+    limit.check(dofs, f"the beam model of scene {shown(cfg.scene)} ({n_segments} segments at {n_el} element(s) per "
+                "segment" + (", the fewest the automatic mesh chooses" if cfg.elements_per_segment == 0 else "") + ")",
+                "scene",
+                "a scene with fewer segments" + (", or fewer elements_per_segment" if n_el > 1 else ""))
+
+
 @lru_cache(maxsize=8)
 def _build(cfg: FFRBeamConfig) -> _Built:
-    """Model, modes and dynamics for a configuration; cached, since instances of one FMU share them."""
+    """Model, modes and dynamics for a configuration; cached, since instances of one FMU share them.  The model's
+    size is checked before anything is built (MAX_BEAM_DOFS, or the environment's FLEXFMU_MAX_DOFS)."""
     _check_config(cfg)
-    scene = load_scene(cfg.scene)
+    limit = dof_limit(MAX_BEAM_DOFS)
+    scene = load_scene(cfg.scene, check_size=lambda n_segments: _check_scene_size(limit, cfg, n_segments))
     load_s = scene.total_length if cfg.load_s == -1.0 else check_arc_length(scene, cfg.load_s, "load_s")
     sensor_s = check_arc_length(scene, cfg.sensor_s, "sensor_s")
     require(len(boundary_clamps(scene, cfg.boundary)) > 0, "boundary",
@@ -89,10 +104,11 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     mesh_choice, truncation = None, None
     n_el = int(cfg.elements_per_segment)
     extra = (load_s, sensor_s)
+    _check_scene_size(limit, cfg, len(scene.points) - 1, scene, extra + boundary_clamps(scene, cfg.boundary))
     if n_el == 0:
         mesh_choice = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
                                                   extra_arc_lengths=extra, min_modes=max(cfg.n_modes, 1),
-                                                  min_modes_parameter="n_modes")
+                                                  min_modes_parameter="n_modes", dof_limit=limit)
         n_el = mesh_choice.elements_per_segment
     model = build_beam_model(scene, cfg.boundary, n_el, extra_arc_lengths=extra)
     if cfg.n_modes == -1:
@@ -107,7 +123,8 @@ def _build(cfg: FFRBeamConfig) -> _Built:
                 break
             finer = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
                                                 extra_arc_lengths=extra, min_modes=n_modes,
-                                                min_modes_parameter="f_max")     # the retained modes, from f_max
+                                                min_modes_parameter="f_max",     # the retained modes, from f_max
+                                                dof_limit=limit)
             if finer.elements_per_segment <= n_el:
                 if finer.elements_per_segment == n_el:
                     mesh_choice = finer

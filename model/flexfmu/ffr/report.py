@@ -7,10 +7,10 @@ from importlib import resources
 
 import numpy as np
 
-from flexfmu.ffr.assembly import BeamModel, build_beam_model
+from flexfmu.ffr.assembly import BeamModel, boundary_clamps, build_beam_model
 from flexfmu.errors import require
 from flexfmu.linalg.modal import Modes, solve_modes
-from flexfmu.ffr.scene import Scene
+from flexfmu.ffr.scene import Scene, beam_model_dofs
 
 PAPER_SCENE = "spatial_double_L"
 # Which column set of the paper's Table 3 a boundary preset is compared with.
@@ -24,18 +24,32 @@ class ModalResult:
     elements_per_segment: int
     converged: bool
     history: list  # [(elements_per_segment, frequencies_hz)], the refinement sequence
+    stopped: str = ""   # why the refinement stopped before converging, when a model size limit stopped it
 
 
 def modal_analysis(scene: Scene, boundary: str = "scene", n_modes: int = 6, elements_per_segment: int = 0,
                    rtol: float = 1e-5, max_elements_per_segment: int = 256,
-                   rotary_inertia: bool = False) -> ModalResult:
+                   rotary_inertia: bool = False, dof_limit=None) -> ModalResult:
     """Frequencies and modes of ``scene``.  ``elements_per_segment = 0`` refines the mesh
-    (doubling from 2) until the first ``n_modes`` frequencies change by less than ``rtol``."""
+    (doubling from 2) until the first ``n_modes`` frequencies change by less than ``rtol``.
+
+    dof_limit: a flexfmu.core.checks.DofLimit.  A given mesh, or the refinement's first, above it is refused
+    (ParameterError naming the scene); the refinement stops before a mesh above it, unconverged, saying so in
+    ``stopped``."""
     require(isinstance(elements_per_segment, int) and elements_per_segment >= 0, "elements_per_segment",
             f"got {elements_per_segment!r}", "0 (refine until converged) or an integer >= 1")
     require(isinstance(n_modes, int) and n_modes >= 1, "n_modes", f"got {n_modes!r}", "an integer >= 1")
 
+    clamps = boundary_clamps(scene, boundary)
+
+    def too_large(n_el: int) -> bool:
+        return dof_limit is not None and beam_model_dofs(scene, n_el, clamps) > dof_limit.limit
+
     def solve(n_el: int) -> tuple[BeamModel, Modes]:
+        if dof_limit is not None:
+            dof_limit.check(beam_model_dofs(scene, n_el, clamps), f"the beam model of scene {scene.name} "
+                            f"({len(scene.points) - 1} segments at {n_el} elements per segment)", "scene",
+                            "a scene with fewer segments, or fewer --elements-per-segment")
         model = build_beam_model(scene, boundary, n_el, rotary_inertia=rotary_inertia)
         require(n_modes <= model.n_free, "n_modes", f"{n_modes} modes asked of a model with {model.n_free} free DOFs",
                 f"1 <= n_modes <= {model.n_free}")
@@ -52,6 +66,10 @@ def modal_analysis(scene: Scene, boundary: str = "scene", n_modes: int = 6, elem
     model, modes = solve(n_el)
     history = [(n_el, modes.frequencies_hz)]
     while n_el < max_elements_per_segment:
+        if too_large(2 * n_el):
+            stopped = (f"not refined beyond {n_el} elements per segment: {2 * n_el} would exceed the limit of "
+                       f"{dof_limit.limit:,} DOFs (raise it with {dof_limit.raise_with})")
+            return ModalResult(model, modes, n_el, False, history, stopped)
         n_el *= 2
         new_model, new_modes = solve(n_el)
         history.append((n_el, new_modes.frequencies_hz))
@@ -103,7 +121,7 @@ def format_table(scene_name: str, result: ModalResult) -> str:
             f"elements/segment={result.elements_per_segment}"
             f"{' (converged)' if result.converged else ''}  free DOFs={m.n_free}")
     cols = paper_columns(m.boundary) if scene_name == PAPER_SCENE else None
-    lines = [head]
+    lines = [head] + ([f"note: {result.stopped}"] if result.stopped else [])
     if cols is None:
         lines.append(f"{'mode':>4} {'f (Hz)':>12}")
         lines += [f"{i + 1:>4} {f:12.3f}" for i, f in enumerate(result.modes.frequencies_hz)]

@@ -8,6 +8,7 @@ the schema and the rule for the local axes of non-circular sections.
 """
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from dataclasses import dataclass, field
@@ -117,6 +118,15 @@ class Scene:
         return (1 - t) * self.points[seg] + t * self.points[seg + 1]
 
 
+def beam_model_dofs(scene: Scene, elements_per_segment: int, extra_arc_lengths=()) -> int:
+    """DOFs of the beam model of ``scene`` at ``elements_per_segment`` (6 per node, before clamping), as
+    flexfmu.ffr.mesh.build_mesh makes it: the segments' nodes and one more node for every clamp, point mass and
+    extra arc length (an upper bound: such a node at an existing one is merged), known before the model is built."""
+    n_segments = len(scene.points) - 1
+    extra = len(tuple(extra_arc_lengths)) + len(scene.clamps) + len(scene.point_masses)
+    return 6 * (n_segments * int(elements_per_segment) + 1 + extra)
+
+
 def check_arc_length(scene: Scene, s: float, parameter: str) -> float:
     """Validate an arc length against the rod, with a tolerance for rounding at the ends."""
     total = scene.total_length
@@ -213,8 +223,30 @@ def material_from_dict(d) -> Material:
     return Material(E, float(nu), rho)
 
 
-def scene_from_dict(d, source: str = "") -> Scene:
-    """Validate a scene dictionary (schema version 1) and build a :class:`Scene`."""
+def _points_array(pts: list) -> np.ndarray:
+    """(n, 3) float array of the scene's points, or ParameterError naming the first that is not 3 finite numbers.
+
+    Checked in bulk (the types of all coordinates at once, then finiteness in numpy) and point by point only to
+    name a failure: a per-point check with its message took 30 s for a million points, before a size check could
+    refuse such a scene."""
+    if set(map(type, pts)) == {list} and set(map(len, pts)) == {3} and \
+            set(map(type, itertools.chain.from_iterable(pts))) <= {int, float}:
+        try:
+            points = np.asarray(pts, dtype=float)
+        except OverflowError:                  # a JSON integer too large for a float: named below
+            points = None
+        if points is not None and np.all(np.isfinite(points)):
+            return points
+    for i, p in enumerate(pts):
+        if not (isinstance(p, list) and len(p) == 3 and all(_is_number(c) for c in p)):
+            raise ParameterError(f"points[{i}]", f"must be 3 finite numbers [x, y, z] in m, got {shown(p)}")
+    return np.asarray(pts, dtype=float)
+
+
+def scene_from_dict(d, source: str = "", check_size=None) -> Scene:
+    """Validate a scene dictionary (schema version 1) and build a :class:`Scene`.  ``check_size(n_segments)``, if
+    given, is called once the points are counted, before they are checked one by one (a model size limit refuses a
+    scene of a million segments there, in the time it takes to read it)."""
     require(isinstance(d, dict), "scene", "must be a JSON object", "see docs/scene_format.md")
     _check_fields(d, _TOP_LEVEL_FIELDS, "")
     version = d.get("schema_version", SCHEMA_VERSION)
@@ -225,25 +257,28 @@ def scene_from_dict(d, source: str = "") -> Scene:
     pts = d.get("points")
     require(isinstance(pts, list) and len(pts) >= 2, "points",
             "need a list of at least 2 points [x, y, z]", "at least 2 points")
-    for i, p in enumerate(pts):
-        require(isinstance(p, list) and len(p) == 3 and all(_is_number(c) for c in p),
-                f"points[{i}]", f"must be 3 finite numbers [x, y, z] in m, got {shown(p)}")
-    points = np.asarray(pts, dtype=float)
+    if check_size is not None:
+        check_size(len(pts) - 1)
+    points = _points_array(pts)
     seg = np.diff(points, axis=0)
-    lengths = np.linalg.norm(seg, axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        lengths = np.linalg.norm(seg, axis=1)
     scale = max(float(np.max(np.abs(points))), 1e-300)
-    for i, L in enumerate(lengths):
-        require(L > 1e-12 * scale, f"points[{i + 1}]", f"segment {i + 1} has zero length",
-                "consecutive points must differ")
-        # a length that overflows (coordinates near 1e308) would make every arc length check read "<= inf m"
-        require(math.isfinite(L), f"points[{i + 1}]", f"segment {i + 1} is too long to represent ({shown(pts[i])} to "
-                f"{shown(pts[i + 1])})", "coordinates whose differences stay below 1e300 m")
+    # a length that overflows (coordinates near 1e308) would make every arc length check read "<= inf m"
+    bad = np.flatnonzero(~(lengths > 1e-12 * scale) | ~np.isfinite(lengths))
+    if bad.size:
+        i = int(bad[0])
+        if np.isfinite(lengths[i]):
+            raise ParameterError(f"points[{i + 1}]", f"segment {i + 1} has zero length",
+                                 "consecutive points must differ")
+        raise ParameterError(f"points[{i + 1}]", f"segment {i + 1} is too long to represent ({shown(pts[i])} to "
+                             f"{shown(pts[i + 1])})", "coordinates whose differences stay below 1e300 m")
     dirs = seg / lengths[:, None]
-    for i in range(len(dirs) - 1):
-        cos = float(dirs[i] @ dirs[i + 1])
-        require(cos > _FOLD_BACK_COS, f"points[{i + 1}]",
-                f"segments {i + 1} and {i + 2} fold back onto each other (angle 180 deg)",
-                "any angle between consecutive segments except a full fold-back")
+    folds = np.flatnonzero(~(np.einsum("ij,ij->i", dirs[:-1], dirs[1:]) > _FOLD_BACK_COS))
+    if folds.size:
+        i = int(folds[0])
+        raise ParameterError(f"points[{i + 1}]", f"segments {i + 1} and {i + 2} fold back onto each other "
+                             "(angle 180 deg)", "any angle between consecutive segments except a full fold-back")
 
     try:
         section = section_from_dict(d.get("section"))
@@ -302,10 +337,11 @@ def builtin_scene_names() -> list[str]:
     return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".json"))
 
 
-def load_scene(name_or_path: str | Path, parameter: str = "scene") -> Scene:
+def load_scene(name_or_path: str | Path, parameter: str = "scene", check_size=None) -> Scene:
     """Load a built-in scene by name, or a scene JSON file by path, and validate it.  Every problem with the
     file (missing, a directory, empty, too large, unreadable, not UTF-8, not JSON, nested too deeply) is a
-    ParameterError naming ``parameter`` (the FMU parameter that gave the name) and the file."""
+    ParameterError naming ``parameter`` (the FMU parameter that gave the name) and the file.  ``check_size``: as
+    :func:`scene_from_dict`'s."""
     text = str(name_or_path)
     names = builtin_scene_names()
     allowed = "one of " + ", ".join(names) + ", or a path to a scene JSON (UTF-8)"
@@ -344,7 +380,7 @@ def load_scene(name_or_path: str | Path, parameter: str = "scene") -> Scene:
     except ValueError as exc:                 # e.g. an integer literal longer than Python converts
         raise ParameterError(parameter, f"{shown(source)} has a value that cannot be read: {exc}") from None
     try:
-        return scene_from_dict(data, source=source)
+        return scene_from_dict(data, source=source, check_size=check_size)
     except RecursionError:
         raise ParameterError(parameter, f"{shown(source)} nests JSON arrays or objects too deeply",
                              "a scene JSON (schema version 1: nested at most 3 levels)") from None

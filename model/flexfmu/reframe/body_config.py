@@ -16,9 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from flexfmu.core.body_points import bounding_box_text, default_patch, patch_reach
-from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, check_max_internal_steps, finite, is_int, require_bool,
-                                 require_real, require_str)
+from flexfmu.core.checks import (DEFAULT_MAX_INTERNAL_STEPS, MAX_BEAM_DOFS, check_max_internal_steps, dof_limit, finite,
+                                 is_int, path_exists_as, require_bool, require_real, require_str, shown)
 from flexfmu.errors import ParameterError, require
+from flexfmu.ffr.scene import beam_model_dofs, builtin_scene_names, load_scene
+from flexfmu.reframe.models import BEAM_PREFIX, DEFAULT_ELEMENTS_PER_SEGMENT
 from flexfmu.reframe.schemes import SCHEMES
 
 AXES = ("x", "y", "z")
@@ -84,6 +86,29 @@ def check_config(c: ReframeBodyConfig) -> None:
             "0 (automatic) or a step > 0 s")
     require_bool(c.force_follows_body, "force_follows_body")
     check_max_internal_steps(c.max_internal_steps)
+
+def check_model_size(c: ReframeBodyConfig) -> None:
+    """A beam:<scene> model within the DOF limit (flexfmu.core.checks.MAX_BEAM_DOFS, or the environment's
+    FLEXFMU_MAX_DOFS) before it is built: ParameterError naming ``model``, its size, the limit and how to raise it,
+    as soon as the scene's segments are counted.  Other models (and a scene that does not exist: load_model names
+    it) pass."""
+    spec = c.model.strip()
+    if not spec.startswith(BEAM_PREFIX):
+        return
+    name = spec[len(BEAM_PREFIX):].strip()
+    if name not in builtin_scene_names() and path_exists_as(name) != "file":
+        return
+    limit = dof_limit(MAX_BEAM_DOFS)
+    n_el = DEFAULT_ELEMENTS_PER_SEGMENT
+
+    def check(n_segments: int, scene=None) -> None:
+        dofs = 6 * (n_segments * n_el + 1) if scene is None else beam_model_dofs(scene, n_el)
+        limit.check(dofs, f"the free beam model of scene {shown(name)} ({n_segments} segments at {n_el} elements per "
+                    "segment)", "model", "a scene with fewer segments")
+
+    scene = load_scene(name, parameter="model", check_size=check)
+    check(len(scene.points) - 1, scene)
+
 
 def check_points(c: ReframeBodyConfig, structure) -> tuple[int, int]:
     """The nodes of the load and output points (the nearest ones), or ParameterError naming the coordinate of a

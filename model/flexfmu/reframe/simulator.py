@@ -56,7 +56,7 @@ from flexfmu.reframe.integrator import RK4_STABILITY_LIMIT, SCHEMES, PointLoad, 
 # the parameters, their checks and the variables' names and meaning (importable from here, as the registry does)
 from flexfmu.reframe.body_config import (AXES, DEFERRED_OUTPUTS, INPUT_NAMES, OUTPUT_NAMES,  # noqa: F401
                                          TOLERANCE_RANGE, VARIABLE_INFO, ReframeBodyConfig, _INITIAL,
-                                         check_config, check_points)
+                                         check_config, check_model_size, check_points)
 
 _INF = math.inf             # a module constant: cheaper than math.inf on the per-step path
 _AUTO_STEP_FRACTION = 0.9   # of the RK4 stability limit, for internal_step = 0
@@ -133,6 +133,7 @@ class ReframeBodySimulator:
     def __init__(self, config: ReframeBodyConfig = ReframeBodyConfig()):
         self.config = c = config
         check_config(c)
+        check_model_size(c)                   # a beam:<scene> too large to set up: refused before it is built
         self.messages: list[str] = []
         auto = c.n_flexible_modes == -1
         load_node, output_node = check_points(c, _structure(c.model))      # the nearest nodes of points on the body
