@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from flexfmu.core.checks import check_assembly_size
 from flexfmu.core.structure import Provenance, Structure
 from flexfmu.errors import ModelFileError
 from flexfmu.importers.assembly import CellBlock, assemble
@@ -52,6 +53,9 @@ def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, fi
                                  entity=f"{block.cell_type} {block.cell_id(row)}")
         used[block.cells.ravel()] = True
     kept = np.flatnonzero(used)
+    # the size limit in force (flexfmu modal's --max-dofs), before the checks and the assembly spend time and memory
+    n_cells = sum(b.cells.shape[0] for b in read.blocks)
+    check_assembly_size(3 * kept.size, f"{path} ({kept.size:,} nodes in {n_cells:,} cells)")
     new_index = np.full(n_points, -1)
     new_index[kept] = np.arange(kept.size)
     notes = list(read.notes)
