@@ -96,6 +96,8 @@ class FMU2Host(FMU2Slave):
                                               ctypes.byref(self._callbacks_kept), False, True)
         if not self.component:
             self.statuses.append(3)
+            for status, text in self.log:       # seen by the parent when this ends the child
+                print(f"fmi2Instantiate logged: {text[:400]}", file=sys.stderr)
             raise FMICallException(function="fmi2Instantiate", status=3)
         return self
 
