@@ -93,8 +93,10 @@ static int failed(fmi2Status s, const char *call) {
 
 int main(int argc, char **argv) {
     if (argc < 9) {
-        fprintf(stderr, "usage: %s PLATFORM UNZIPPED_DIR MODEL_IDENTIFIER GUID STEP N_STEPS INPUTS OUTPUTS "
-                        "[--set real|int|bool|string VR VALUE]... [--input VR]... [--output VR]...\n", argv[0]);
+        fprintf(stderr,
+                "usage: %s PLATFORM UNZIPPED_DIR MODEL_IDENTIFIER GUID STEP N_STEPS INPUTS OUTPUTS "
+                "[--set real|int|bool|string VR VALUE]... [--input VR]... [--output VR]...\n",
+                argv[0]);
         return USAGE;
     }
     const char *platform = argv[1], *dir = argv[2], *id = argv[3], *guid = argv[4];
