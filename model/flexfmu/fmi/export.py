@@ -18,14 +18,19 @@ from flexfmu.fmi.body_fmu import (BODY_FILE, ExportedSpec, check_model_identifie
                                   default_experiment, documentation_html, exported_spec)
 
 
-def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python") -> Path:
+def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python",
+               fmi_version: int = 2) -> Path:
     """Build the FMU of ``body`` (flexfmu.body.FlexBody) at ``target`` (``NAME.fmu``; NAME becomes the
-    modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native, which does not import this module)."""
+    modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native, which does not import this module);
+    ``fmi_version`` 3: FMI 3.0 co-simulation (the native runtime only)."""
     if runtime == "native":
         from flexfmu.fmi.native import export_native
-        return export_native(body, target, description=description)
+        return export_native(body, target, description=description, fmi_version=fmi_version)
     if runtime != "python":
         raise ParameterError("runtime", f"got {runtime!r}", "python | native")
+    if fmi_version != 2:
+        raise ParameterError("fmi_version", f"{fmi_version!r} with the Python runtime, whose FMUs are FMI 2.0 only "
+                             "for now", "2, or runtime native for FMI 3.0")
     from flexfmu.fmi import build
     from flexfmu.fmi import runtime as python_runtime
 

@@ -1,6 +1,7 @@
-"""Native FMUs: an FMI 2.0 co-simulation FMU whose binary is C only (no Python in the host), built from an FMU spec
-and a configuration (``flexfmu build --runtime native``) or from an exported body, clamped or free (``flexfmu
-export ... --runtime native``).
+"""Native FMUs: an FMI 2.0 co-simulation FMU (or, with ``fmi_version=3``, an FMI 3.0 one: the same binary,
+flexfmu.fmi.description_fmi3) whose binary is C only (no Python in the host), built from an FMU spec and a
+configuration (``flexfmu build --runtime native``) or from an exported body, clamped or free (``flexfmu export ...
+--runtime native``).
 
 The binary is the same front as the Python FMUs' (csrc/flexfmu_fmi2.c: entry points, call-sequence table, FMU-state
 header, logging) compiled in its native variant and linked statically with the native bridge (csrc/flexfmu_native.c:
@@ -184,13 +185,13 @@ def _cli_text(value) -> str:
 
 
 def build_registry_fmu(name: str = "FFRBeam", settings: dict | None = None, *, out=None, target=None,
-                       model_name: str | None = None) -> Path:
+                       model_name: str | None = None, fmi_version: int = 2) -> Path:
     """``flexfmu build --runtime native``: the native FMU of the registry entry ``name`` into ``target`` (default
-    ``out``/<model name>.fmu)."""
+    ``out``/<model name>.fmu); ``fmi_version`` 2 or 3 (FMI 3.0 co-simulation)."""
     source = registry_source(name, settings, model_name=model_name)
     if target is None:
         target = Path(out or "dist") / f"{source.name}.fmu"
-    return build_native_fmu(source, target)
+    return build_native_fmu(source, target, fmi_version=fmi_version)
 
 
 # ---------------------------------------------------------------------------------------------- exported bodies
@@ -306,9 +307,10 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
 _BODY_SOURCES = {"lti": _clamped_body_source, "reframe": _free_body_source}
 
 
-def export_native(body, target, *, description: str | None = None, scheme: str = "exponential") -> Path:
+def export_native(body, target, *, description: str | None = None, scheme: str = "exponential",
+                  fmi_version: int = 2) -> Path:
     """``flexfmu export ... --runtime native``: the native FMU of a clamped or free body at ``target`` (NAME.fmu);
-    ``scheme``: a free body's, fixed at build."""
+    ``scheme``: a free body's, fixed at build; ``fmi_version`` 2 or 3 (FMI 3.0 co-simulation)."""
     from flexfmu.fmi.body_fmu import check_target
     name = check_target(target)
-    return build_native_fmu(body_source(body, name, description, scheme=scheme), target)
+    return build_native_fmu(body_source(body, name, description, scheme=scheme), target, fmi_version=fmi_version)

@@ -35,19 +35,20 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from flexfmu.errors import ParameterError
-from flexfmu.fmi import archive, model_file
+from flexfmu.fmi import archive, description_fmi3, model_file
 from flexfmu.fmi.model_file import FORMAT_VERSION, MODEL_FILE, write_model_file
 
 HERE = Path(__file__).resolve().parent
 FMI_CSRC = HERE / "csrc"
 BUILD_INFO = "flexfmu_build.json"
 #: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
-_FRONT = ("native_front.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
+_FRONT = ("native_front.c", "flexfmu_fmi3.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "front_common.c", "front_common.h", "flexfmu_bridge.h", "native_kind.h",
                   "native_platform.h")
 _KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
 _KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+_FMI3_HEADERS = ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")     # fmpy ships them beside
 
 
 # ---------------------------------------------------------------------------------------------- what is built
@@ -178,7 +179,7 @@ def source_files() -> dict[str, Path]:
     from flexfmu.native.compiler import CSRC
     files = {name: FMI_CSRC / name for name in (*_FRONT, *_FRONT_HEADERS)}
     files.update({name: CSRC / name for name in (*_KERNELS, *_KERNEL_HEADERS)})
-    files.update({name: _fmi2_headers() / name for name in _FMI2_HEADERS})
+    files.update({name: _fmi2_headers() / name for name in (*_FMI2_HEADERS, *_FMI3_HEADERS)})
     return files
 
 
@@ -284,13 +285,16 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | file | what |
 |---|---|
 | `native_front.c` | the FMI 2.0 front (`flexfmu_fmi2.c`) in its native variant (`FLEXFMU_NATIVE`) |
-| `flexfmu_fmi2.c`, `flexfmu_bridge.h` | the front: entry points, call-sequence table, FMU-state header, logging |
+| `flexfmu_fmi2.c`, `flexfmu_bridge.h` | the FMI 2.0 front: entry points, call-sequence table, logging |
+| `flexfmu_fmi3.c` | the FMI 3.0 front: entry points, call-sequence table, logging (the same library serves both) |
+| `front_common.c`, `front_common.h` | instance, lock, FMU-state header of both (compiled in `flexfmu_fmi2.c`) |
 | `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
 | `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
 | `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
 | `step_policy.c`, `step_policy.h` | both kinds: a communication step's internal steps, refused beyond max_internal_steps |
 | `native_platform.h` | Windows: locks and the library's own path |
 | `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
+| `fmi3Functions.h`, `fmi3FunctionTypes.h`, `fmi3PlatformTypes.h` | the FMI 3.0 headers |
 
 ## Rebuild for another platform
 
@@ -315,12 +319,13 @@ writes `linux64` on any Linux).
   `-DCMAKE_OSX_ARCHITECTURES="arm64;x86_64"` for one library that runs on both (FMI 2.0 names both darwin64).
 - **Linux**: gcc or clang; the library links libc, libm, libpthread and libdl only.
 
-Without CMake: compile `native_front.c flexfmu_native.c native_lti.c native_reframe.c lti_kernels.c
-reframe_kernels.c step_policy.c` into one shared library
+Without CMake: compile `native_front.c flexfmu_fmi3.c flexfmu_native.c native_kinds.c native_lti.c native_reframe.c
+lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
 named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
-symbol visibility (only the fmi2* functions are exported) and libm, e.g.
-`cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_native.c
-native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
+symbol visibility (only the fmi2* and fmi3* functions are exported) and libm, e.g.
+`cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_fmi3.c
+flexfmu_native.c native_kinds.c native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c step_policy.c
+-o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """
@@ -385,8 +390,10 @@ def _rebuild_text(source: NativeSource) -> str:
 
 
 # ---------------------------------------------------------------------------------------------- the FMU
-def build_native_fmu(source: NativeSource, target) -> Path:
-    """Write the native FMU of ``source`` at ``target`` (NAME.fmu) and check it with fmpy's validation."""
+def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2) -> Path:
+    """Write the native FMU of ``source`` at ``target`` (NAME.fmu) and check it with fmpy's validation; ``fmi_version``
+    3: an FMI 3.0 co-simulation FMU (flexfmu.fmi.description_fmi3: its modelDescription, platform folders and
+    buildDescription) of the same binary."""
     from fmpy.validation import validate_fmu
 
     from flexfmu import __version__
@@ -397,7 +404,10 @@ def build_native_fmu(source: NativeSource, target) -> Path:
     guid = "{" + str(uuid.uuid4()) + "}"
     runtime_names = {p.name for p in source.runtime}
     with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
-        description = model_description(source, guid)
+        if fmi_version not in (2, 3):
+            raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
+        description = model_description(source, guid) if fmi_version == 2 else description_fmi3.model_description(
+            source, guid)
         entries = model_entries(source, guid)
         built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
         frozen = {k: v for k, v in built.items() if k not in runtime_names}
@@ -424,6 +434,8 @@ def build_native_fmu(source: NativeSource, target) -> Path:
         }
         for name, path in source_files().items():
             members[f"sources/{name}"] = path.read_bytes()
+        if fmi_version == 3:
+            members = description_fmi3.fmi3_layout(members, source.name, (*_FRONT, *_KERNELS))
         target.parent.mkdir(parents=True, exist_ok=True)
         archive.write_members(target, members)
     problems = validate_fmu(str(target))

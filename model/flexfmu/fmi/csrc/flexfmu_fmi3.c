@@ -1,0 +1,937 @@
+/*
+ * flexfmu_fmi3.c - the FMI 3.0 co-simulation front of the native flexfmu FMUs (binaries/x86_64-linux/<id>.so).
+ *
+ * The same library as the FMI 2.0 front's (flexfmu_fmi2.c, with front_common.c: the instance, its lock, logging and
+ * the refusal of re-entrant calls, the FMU-state box and its serialised header, the resources folder, the bridge),
+ * over the same runtime (flexfmu_native.c and its kinds): one binary serves an FMI 2.0 and an FMI 3.0 FMU.  This
+ * file holds what FMI 3.0 defines: its entry points, its call-sequence table (the standard's state machine for
+ * co-simulation without Event Mode: eventModeUsed = false), its argument checks and its logger.
+ *
+ * What differs from the FMI 2.0 front:
+ *  - fmi3EnterInitializationMode takes the experiment (tolerance, startTime, stopTime: fmi2SetupExperiment's
+ *    checks); a step that would end after a defined stopTime is refused;
+ *  - fmi3DoStep's out-arguments: eventHandlingNeeded, terminateSimulation and earlyReturn are always false (no
+ *    events, no early return), lastSuccessfulTime is the FMU's time after the call (the step's start after
+ *    fmi3Discard, which leaves the instance in Step Mode at the step's start: retry a smaller step);
+ *  - every call that returns fmi3Error enters Terminated (the standard's rule for the super state FMU State
+ *    Settable), from where fmi3Reset, fmi3SetFMUState or fmi3FreeInstance continue;
+ *  - variables: Float64, Int32 (FMI 2.0's Integer), Boolean (C bool, converted to and from the runtime's int) and
+ *    String, one value per value reference (no arrays); the independent variable `time` has value reference
+ *    TIME_VALUE_REFERENCE (flexfmu.fmi.description_fmi3) and reads as the FMU's time;
+ *  - the runtime names FMI 2.0 functions in its messages: the logger gets them with their FMI 3.0 names
+ *    (fmi2GetReal -> fmi3GetFloat64, fmi2Discard -> fmi3Discard, ...), and with '#' doubled (FMI 3.0 messages
+ *    reference variables as #<valueReference>#); the message is not a format, so '%' stays as it is.
+ * Every other FMI 3.0 function is present and returns fmi3Error, logging that it is not provided.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi3Functions.h"
+#include "front_common.h"
+
+/* the runtime's value types are FMI 2.0's: unsigned int value references, int Integer */
+typedef char value_reference_is_unsigned_int[sizeof(fmi3ValueReference) == sizeof(unsigned int) ? 1 : -1];
+typedef char int32_is_int[sizeof(fmi3Int32) == sizeof(int) ? 1 : -1];
+
+/* the value reference of the independent variable `time` (flexfmu.fmi.description_fmi3.TIME_VALUE_REFERENCE):
+   after any variable's of the runtime, which numbers them from 0 */
+#define TIME_VALUE_REFERENCE 2147483647u
+
+/* a step ending this little (relative to the step) after stopTime ends at stopTime: a host's clock is the sum of its
+   steps, rounded (the step-size rule's relative tolerance, docs/fmu.md "Step sizes a host passes") */
+#define STOP_TIME_RTOL 1e-6
+
+/* ---- states and the call-sequence table ------------------------------------------------------- */
+
+typedef enum {
+    Instantiated = 1 << 0,       /* after fmi3InstantiateCoSimulation, fmi3Reset */
+    InitializationMode = 1 << 1, /* after fmi3EnterInitializationMode */
+    StepMode = 1 << 2,           /* after fmi3ExitInitializationMode, fmi3DoStep (fmi3OK, fmi3Warning, fmi3Discard) */
+    Terminated = 1 << 4,         /* after fmi3Terminate, and after any call that returned fmi3Error */
+} State;
+
+#define ALL_STATES (Instantiated | InitializationMode | StepMode | Terminated)
+#define VALUES_READABLE (InitializationMode | StepMode | Terminated)
+#define VALUES_WRITABLE (Instantiated | InitializationMode | StepMode)
+
+typedef enum {
+    F_SetDebugLogging,
+    F_FreeInstance,
+    F_EnterInitializationMode,
+    F_ExitInitializationMode,
+    F_EnterEventMode,
+    F_Terminate,
+    F_Reset,
+    F_GetFloat32,
+    F_GetFloat64,
+    F_GetInt8,
+    F_GetUInt8,
+    F_GetInt16,
+    F_GetUInt16,
+    F_GetInt32,
+    F_GetUInt32,
+    F_GetInt64,
+    F_GetUInt64,
+    F_GetBoolean,
+    F_GetString,
+    F_GetBinary,
+    F_GetClock,
+    F_SetFloat32,
+    F_SetFloat64,
+    F_SetInt8,
+    F_SetUInt8,
+    F_SetInt16,
+    F_SetUInt16,
+    F_SetInt32,
+    F_SetUInt32,
+    F_SetInt64,
+    F_SetUInt64,
+    F_SetBoolean,
+    F_SetString,
+    F_SetBinary,
+    F_SetClock,
+    F_GetNumberOfVariableDependencies,
+    F_GetVariableDependencies,
+    F_GetFMUState,
+    F_SetFMUState,
+    F_FreeFMUState,
+    F_SerializedFMUStateSize,
+    F_SerializeFMUState,
+    F_DeserializeFMUState,
+    F_GetDirectionalDerivative,
+    F_GetAdjointDerivative,
+    F_EnterConfigurationMode,
+    F_ExitConfigurationMode,
+    F_GetIntervalDecimal,
+    F_GetIntervalFraction,
+    F_GetShiftDecimal,
+    F_GetShiftFraction,
+    F_SetIntervalDecimal,
+    F_SetIntervalFraction,
+    F_SetShiftDecimal,
+    F_SetShiftFraction,
+    F_EvaluateDiscreteStates,
+    F_UpdateDiscreteStates,
+    F_EnterContinuousTimeMode,
+    F_CompletedIntegratorStep,
+    F_SetTime,
+    F_SetContinuousStates,
+    F_GetContinuousStateDerivatives,
+    F_GetEventIndicators,
+    F_GetContinuousStates,
+    F_GetNominalsOfContinuousStates,
+    F_GetNumberOfEventIndicators,
+    F_GetNumberOfContinuousStates,
+    F_EnterStepMode,
+    F_GetOutputDerivatives,
+    F_DoStep,
+    F_ActivateModelPartition,
+    F_COUNT
+} Function;
+
+#define NO_TYPE "not provided: this FMU has variables of the types Float64, Int32, Boolean and String only"
+#define NO_EVENT_MODE "not provided: this FMU has no Event Mode (hasEventMode is false)"
+#define NO_CLOCKS "not provided: this FMU has no clocks"
+#define NO_MODEL_EXCHANGE "not provided: this FMU is for co-simulation only (no model exchange)"
+#define NO_SCHEDULED_EXECUTION "not provided: this FMU is for co-simulation only (no scheduled execution)"
+
+/* The one legal-call table (docs/fmu.md prints it): the FMI 3.0 standard's co-simulation state machine without
+   Event Mode, Configuration Mode or clocks.  Parameters (variability fixed) are settable only before
+   fmi3ExitInitializationMode: the runtime checks that per variable. */
+static const FrontCall CALLS[F_COUNT] = {
+    [F_SetDebugLogging] = {"fmi3SetDebugLogging", ALL_STATES, NULL},
+    [F_FreeInstance] = {"fmi3FreeInstance", ALL_STATES, NULL},
+    [F_EnterInitializationMode] = {"fmi3EnterInitializationMode", Instantiated, NULL},
+    [F_ExitInitializationMode] = {"fmi3ExitInitializationMode", InitializationMode, NULL},
+    [F_EnterEventMode] = {"fmi3EnterEventMode", 0, NO_EVENT_MODE},
+    [F_Terminate] = {"fmi3Terminate", StepMode, NULL},
+    [F_Reset] = {"fmi3Reset", ALL_STATES, NULL},
+    [F_GetFloat32] = {"fmi3GetFloat32", 0, NO_TYPE},
+    [F_GetFloat64] = {"fmi3GetFloat64", VALUES_READABLE, NULL},
+    [F_GetInt8] = {"fmi3GetInt8", 0, NO_TYPE},
+    [F_GetUInt8] = {"fmi3GetUInt8", 0, NO_TYPE},
+    [F_GetInt16] = {"fmi3GetInt16", 0, NO_TYPE},
+    [F_GetUInt16] = {"fmi3GetUInt16", 0, NO_TYPE},
+    [F_GetInt32] = {"fmi3GetInt32", VALUES_READABLE, NULL},
+    [F_GetUInt32] = {"fmi3GetUInt32", 0, NO_TYPE},
+    [F_GetInt64] = {"fmi3GetInt64", 0, NO_TYPE},
+    [F_GetUInt64] = {"fmi3GetUInt64", 0, NO_TYPE},
+    [F_GetBoolean] = {"fmi3GetBoolean", VALUES_READABLE, NULL},
+    [F_GetString] = {"fmi3GetString", VALUES_READABLE, NULL},
+    [F_GetBinary] = {"fmi3GetBinary", 0, NO_TYPE},
+    [F_GetClock] = {"fmi3GetClock", 0, NO_CLOCKS},
+    [F_SetFloat32] = {"fmi3SetFloat32", 0, NO_TYPE},
+    [F_SetFloat64] = {"fmi3SetFloat64", VALUES_WRITABLE, NULL},
+    [F_SetInt8] = {"fmi3SetInt8", 0, NO_TYPE},
+    [F_SetUInt8] = {"fmi3SetUInt8", 0, NO_TYPE},
+    [F_SetInt16] = {"fmi3SetInt16", 0, NO_TYPE},
+    [F_SetUInt16] = {"fmi3SetUInt16", 0, NO_TYPE},
+    [F_SetInt32] = {"fmi3SetInt32", VALUES_WRITABLE, NULL},
+    [F_SetUInt32] = {"fmi3SetUInt32", 0, NO_TYPE},
+    [F_SetInt64] = {"fmi3SetInt64", 0, NO_TYPE},
+    [F_SetUInt64] = {"fmi3SetUInt64", 0, NO_TYPE},
+    [F_SetBoolean] = {"fmi3SetBoolean", VALUES_WRITABLE, NULL},
+    [F_SetString] = {"fmi3SetString", VALUES_WRITABLE, NULL},
+    [F_SetBinary] = {"fmi3SetBinary", 0, NO_TYPE},
+    [F_SetClock] = {"fmi3SetClock", 0, NO_CLOCKS},
+    [F_GetNumberOfVariableDependencies]
+    = {"fmi3GetNumberOfVariableDependencies", 0, "not provided: this FMU gives no variable dependencies"},
+    [F_GetVariableDependencies]
+    = {"fmi3GetVariableDependencies", 0, "not provided: this FMU gives no variable dependencies"},
+    [F_GetFMUState] = {"fmi3GetFMUState", ALL_STATES, NULL},
+    [F_SetFMUState] = {"fmi3SetFMUState", ALL_STATES, NULL},
+    [F_FreeFMUState] = {"fmi3FreeFMUState", ALL_STATES, NULL},
+    [F_SerializedFMUStateSize] = {"fmi3SerializedFMUStateSize", ALL_STATES, NULL},
+    [F_SerializeFMUState] = {"fmi3SerializeFMUState", ALL_STATES, NULL},
+    [F_DeserializeFMUState] = {"fmi3DeserializeFMUState", ALL_STATES, NULL},
+    [F_GetDirectionalDerivative]
+    = {"fmi3GetDirectionalDerivative", 0, "not provided (providesDirectionalDerivative is false)"},
+    [F_GetAdjointDerivative] = {"fmi3GetAdjointDerivative", 0, "not provided (providesAdjointDerivatives is false)"},
+    [F_EnterConfigurationMode]
+    = {"fmi3EnterConfigurationMode", 0, "not provided: this FMU has no structural parameters"},
+    [F_ExitConfigurationMode] = {"fmi3ExitConfigurationMode", 0, "not provided: this FMU has no structural parameters"},
+    [F_GetIntervalDecimal] = {"fmi3GetIntervalDecimal", 0, NO_CLOCKS},
+    [F_GetIntervalFraction] = {"fmi3GetIntervalFraction", 0, NO_CLOCKS},
+    [F_GetShiftDecimal] = {"fmi3GetShiftDecimal", 0, NO_CLOCKS},
+    [F_GetShiftFraction] = {"fmi3GetShiftFraction", 0, NO_CLOCKS},
+    [F_SetIntervalDecimal] = {"fmi3SetIntervalDecimal", 0, NO_CLOCKS},
+    [F_SetIntervalFraction] = {"fmi3SetIntervalFraction", 0, NO_CLOCKS},
+    [F_SetShiftDecimal] = {"fmi3SetShiftDecimal", 0, NO_CLOCKS},
+    [F_SetShiftFraction] = {"fmi3SetShiftFraction", 0, NO_CLOCKS},
+    [F_EvaluateDiscreteStates] = {"fmi3EvaluateDiscreteStates", 0, NO_EVENT_MODE},
+    [F_UpdateDiscreteStates] = {"fmi3UpdateDiscreteStates", 0, NO_EVENT_MODE},
+    [F_EnterContinuousTimeMode] = {"fmi3EnterContinuousTimeMode", 0, NO_MODEL_EXCHANGE},
+    [F_CompletedIntegratorStep] = {"fmi3CompletedIntegratorStep", 0, NO_MODEL_EXCHANGE},
+    [F_SetTime] = {"fmi3SetTime", 0, NO_MODEL_EXCHANGE},
+    [F_SetContinuousStates] = {"fmi3SetContinuousStates", 0, NO_MODEL_EXCHANGE},
+    [F_GetContinuousStateDerivatives] = {"fmi3GetContinuousStateDerivatives", 0, NO_MODEL_EXCHANGE},
+    [F_GetEventIndicators] = {"fmi3GetEventIndicators", 0, NO_MODEL_EXCHANGE},
+    [F_GetContinuousStates] = {"fmi3GetContinuousStates", 0, NO_MODEL_EXCHANGE},
+    [F_GetNominalsOfContinuousStates] = {"fmi3GetNominalsOfContinuousStates", 0, NO_MODEL_EXCHANGE},
+    [F_GetNumberOfEventIndicators] = {"fmi3GetNumberOfEventIndicators", 0, NO_MODEL_EXCHANGE},
+    [F_GetNumberOfContinuousStates] = {"fmi3GetNumberOfContinuousStates", 0, NO_MODEL_EXCHANGE},
+    [F_EnterStepMode] = {"fmi3EnterStepMode", 0, NO_EVENT_MODE},
+    [F_GetOutputDerivatives] = {"fmi3GetOutputDerivatives", 0, "not provided (maxOutputDerivativeOrder is 0)"},
+    [F_DoStep] = {"fmi3DoStep", StepMode, NULL},
+    [F_ActivateModelPartition] = {"fmi3ActivateModelPartition", 0, NO_SCHEDULED_EXECUTION},
+};
+
+static const char *state_name(int state) {
+    switch (state) {
+    case Instantiated: return "Instantiated";
+    case InitializationMode: return "InitializationMode";
+    case StepMode: return "StepMode";
+    case Terminated: return "Terminated";
+    default: return "?";
+    }
+}
+
+/* ---- the instance ------------------------------------------------------------------------------ */
+
+#define INSTANCE_MAGIC 0x33584c46u /* "FLX3": an FMI 2.0 instance (or any other pointer) is refused */
+
+typedef struct {
+    FrontInstance front;
+    int stop_time_defined; /* fmi3EnterInitializationMode's stopTime: no step ends after it */
+    double stop_time;
+} Instance;
+
+/* The runtime's FMI 2.0 function names, as FMI 3.0 names them (any other fmi2X is fmi3X). */
+static const struct {
+    const char *fmi2, *fmi3;
+} RENAMED[] = {
+    {"fmi2GetReal", "fmi3GetFloat64"},
+    {"fmi2SetReal", "fmi3SetFloat64"},
+    {"fmi2GetInteger", "fmi3GetInt32"},
+    {"fmi2SetInteger", "fmi3SetInt32"},
+    {"fmi2Instantiate", "fmi3InstantiateCoSimulation"},
+    {"fmi2SetupExperiment", "fmi3EnterInitializationMode"},
+    {"fmi2GetFMUstate", "fmi3GetFMUState"},
+    {"fmi2SetFMUstate", "fmi3SetFMUState"},
+    {"fmi2FreeFMUstate", "fmi3FreeFMUState"},
+    {"fmi2SerializedFMUstateSize", "fmi3SerializedFMUStateSize"},
+    {"fmi2SerializeFMUstate", "fmi3SerializeFMUState"},
+    {"fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"},
+};
+
+/* The runtime's FMI 2.0 type names in its messages ("value reference 3 is 'x', a Real variable"). */
+static const struct {
+    const char *fmi2, *fmi3;
+} RETYPED[] = {{"a Real variable", "a Float64 variable"}, {"a Integer variable", "an Int32 variable"}};
+
+#define LONGEST_GROWTH 16 /* the most a renamed name or type is longer than its FMI 2.0 form */
+
+static int identifier_char(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+/* `message` with FMI 3.0's names and '#' doubled, in malloc'ed memory (NULL when out of memory). */
+static char *fmi3_text(const char *message) {
+    size_t n = strlen(message), marks = 0;
+    for (const char *p = strstr(message, "fmi2"); p; p = strstr(p + 4, "fmi2")) marks++;
+    for (size_t k = 0; k < sizeof RETYPED / sizeof *RETYPED; k++)
+        for (const char *p = strstr(message, RETYPED[k].fmi2); p; p = strstr(p + 1, RETYPED[k].fmi2)) marks++;
+    char *text = malloc(2 * n + LONGEST_GROWTH * marks + 1);
+    if (!text) return NULL;
+    char *out = text;
+    for (size_t i = 0; i < n;) {
+        const char *at = message + i;
+        size_t taken = 0;
+        for (size_t k = 0; !taken && k < sizeof RETYPED / sizeof *RETYPED; k++) {
+            size_t length = strlen(RETYPED[k].fmi2);
+            if (strncmp(at, RETYPED[k].fmi2, length) == 0) {
+                out += strlen(strcpy(out, RETYPED[k].fmi3));
+                taken = length;
+            }
+        }
+        if (!taken && strncmp(at, "fmi2", 4) == 0 && (i == 0 || !identifier_char(at[-1]))) {
+            size_t length = 4;
+            while (identifier_char(at[length])) length++;
+            const char *renamed = NULL;
+            for (size_t k = 0; !renamed && k < sizeof RENAMED / sizeof *RENAMED; k++)
+                if (strlen(RENAMED[k].fmi2) == length && strncmp(at, RENAMED[k].fmi2, length) == 0)
+                    renamed = RENAMED[k].fmi3;
+            if (renamed) {
+                out += strlen(strcpy(out, renamed));
+            } else {
+                memcpy(out, "fmi3", 4);
+                memcpy(out + 4, at + 4, length - 4);
+                out += length;
+            }
+            taken = length;
+        }
+        if (!taken) {
+            if (*at == '#') *out++ = '#';
+            *out++ = *at;
+            taken = 1;
+        }
+        i += taken;
+    }
+    *out = '\0';
+    return text;
+}
+
+static void deliver(const FrontInstance *inst, int status, const char *category, const char *message) {
+    char *text = fmi3_text(message);
+    ((fmi3LogMessageCallback)inst->logger)(inst->environment, (fmi3Status)status, category, text ? text : message);
+    free(text);
+}
+
+static const FrontVersion FMI3 = {.magic = INSTANCE_MAGIC,
+                                  .all_states = ALL_STATES,
+                                  .error_state = Terminated,
+                                  .every_error = 1,
+                                  .error_name = "fmi3Error",
+                                  .serialized_size_name = "fmi3SerializedFMUStateSize",
+                                  .state_name = state_name,
+                                  .deliver = deliver};
+
+/* Check the instance pointer and the call sequence; lock the instance.  NULL: refused (return fmi3Error). */
+static Instance *enter(fmi3Instance instance, Function f) {
+    return (Instance *)front_enter(instance, &FMI3, &CALLS[f]);
+}
+
+static fmi3Status leave(Instance *inst, int status) { return (fmi3Status)front_leave(&inst->front, status); }
+
+static int fail(Instance *inst, Function f, const char *why) { return front_fail(&inst->front, CALLS[f].name, why); }
+
+/* A function this FMU does not provide: refused in every state, naming it. */
+static fmi3Status not_provided(fmi3Instance instance, Function f) {
+    enter(instance, f);
+    return fmi3Error;
+}
+
+/* ---- FMI 3.0: common functions ----------------------------------------------------------------- */
+
+const char *fmi3GetVersion(void) { return fmi3Version; }
+
+fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
+                               const fmi3String categories[]) {
+    Instance *inst = enter(instance, F_SetDebugLogging);
+    if (!inst) return fmi3Error;
+    return leave(
+        inst, front_set_debug_logging(&inst->front, CALLS[F_SetDebugLogging].name, loggingOn, nCategories, categories));
+}
+
+/* Instantiation functions of other interface types: refused through the host's logger (no instance exists). */
+static fmi3Instance not_instantiated(const char *function, const char *why, fmi3InstanceEnvironment environment,
+                                     fmi3LogMessageCallback logMessage) {
+    char message[256];
+    snprintf(message, sizeof message, "%s: %s", function, why);
+    if (logMessage) logMessage(environment, fmi3Error, "logStatusError", message);
+    return NULL;
+}
+
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken,
+                                          fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment,
+                                          fmi3LogMessageCallback logMessage) {
+    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
+    return not_instantiated("fmi3InstantiateModelExchange", NO_MODEL_EXCHANGE, instanceEnvironment, logMessage);
+}
+
+fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
+                                               fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                               fmi3InstanceEnvironment instanceEnvironment,
+                                               fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
+                                               fmi3LockPreemptionCallback lockPreemption,
+                                               fmi3UnlockPreemptionCallback unlockPreemption) {
+    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
+    (void)clockUpdate, (void)lockPreemption, (void)unlockPreemption;
+    return not_instantiated("fmi3InstantiateScheduledExecution", NO_SCHEDULED_EXECUTION, instanceEnvironment,
+                            logMessage);
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
+                                         fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
+                                         fmi3Boolean eventModeUsed, fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables,
+                                         fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage,
+                                         fmi3IntermediateUpdateCallback intermediateUpdate) {
+    /* earlyReturnAllowed: fmi3DoStep never returns early; intermediateUpdate: never called (no intermediate
+       variables) */
+    (void)earlyReturnAllowed, (void)requiredIntermediateVariables, (void)intermediateUpdate;
+    static const char *name = "fmi3InstantiateCoSimulation";
+    Instance *inst = (Instance *)front_new_instance(&FMI3, sizeof *inst, Instantiated, instanceName, instantiationToken,
+                                                    loggingOn, (FrontLogger)logMessage, instanceEnvironment);
+    if (!inst) return NULL;
+    FrontInstance *front = &inst->front;
+    char resources[4096];
+    if (eventModeUsed) {
+        front_fail(front, name,
+                   "eventModeUsed: this FMU has no Event Mode (hasEventMode is false); "
+                   "instantiate it with eventModeUsed = false");
+    } else if (nRequiredIntermediateVariables > 0) {
+        front_fail(front, name,
+                   "requiredIntermediateVariables: this FMU has no intermediate update (no variable has "
+                   "intermediateUpdate = true); pass none");
+    } else if (front_resources_from_path(resourcePath, resources, sizeof resources) < 0) {
+        front_fail(front, name,
+                   "resourcePath: neither it (the resources folder of the extracted FMU) nor the folder next to "
+                   "this binary holds the FMU's resources (resources/flexfmu_build.json)");
+    } else if (front_instantiate_slave(front, name, resources, visible) == 0) {
+        return inst;
+    }
+    front_free_instance_memory(front);
+    return NULL;
+}
+
+void fmi3FreeInstance(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_FreeInstance);
+    if (!inst) return;
+    inst->front.bridge->free_instance(inst->front.slave);
+    front_unlock(&inst->front);
+    front_free_instance_memory(&inst->front);
+}
+
+/* ---- FMI 3.0: initialisation, termination, reset ----------------------------------------------- */
+
+fmi3Status fmi3EnterInitializationMode(fmi3Instance instance, fmi3Boolean toleranceDefined, fmi3Float64 tolerance,
+                                       fmi3Float64 startTime, fmi3Boolean stopTimeDefined, fmi3Float64 stopTime) {
+    Instance *inst = enter(instance, F_EnterInitializationMode);
+    if (!inst) return fmi3Error;
+    FrontInstance *front = &inst->front;
+    int status = front_setup_experiment(front, CALLS[F_EnterInitializationMode].name, toleranceDefined, tolerance,
+                                        startTime, stopTimeDefined, stopTime);
+    if (status <= BRIDGE_WARNING) {
+        int entered = front->bridge->simple_call(front->slave, CALL_ENTER_INITIALIZATION_MODE);
+        if (entered > status) status = entered;
+    }
+    if (status <= BRIDGE_WARNING) {
+        front->state = InitializationMode;
+        inst->stop_time_defined = stopTimeDefined;
+        inst->stop_time = stopTime;
+    }
+    return leave(inst, status);
+}
+
+fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_ExitInitializationMode);
+    if (!inst) return fmi3Error;
+    int status = inst->front.bridge->simple_call(inst->front.slave, CALL_EXIT_INITIALIZATION_MODE);
+    if (status <= BRIDGE_WARNING) inst->front.state = StepMode;
+    return leave(inst, status);
+}
+
+fmi3Status fmi3Terminate(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_Terminate);
+    if (!inst) return fmi3Error;
+    int status = inst->front.bridge->simple_call(inst->front.slave, CALL_TERMINATE);
+    if (status <= BRIDGE_WARNING) inst->front.state = Terminated;
+    return leave(inst, status);
+}
+
+fmi3Status fmi3Reset(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_Reset);
+    if (!inst) return fmi3Error;
+    int status = inst->front.bridge->simple_call(inst->front.slave, CALL_RESET);
+    if (status <= BRIDGE_WARNING) {
+        inst->front.state = Instantiated;
+        inst->stop_time_defined = 0;
+    }
+    return leave(inst, status);
+}
+
+fmi3Status fmi3EnterEventMode(fmi3Instance instance) { return not_provided(instance, F_EnterEventMode); }
+
+/* ---- FMI 3.0: getting and setting variable values ---------------------------------------------- */
+
+/* One value per value reference (no array variables); `time` only through Float64. */
+static int check_values(Instance *inst, Function f, BridgeValueType type, const fmi3ValueReference vr[], size_t nvr,
+                        const void *values, size_t nValues) {
+    if (!vr || !values) return fail(inst, f, "valueReferences or values is NULL");
+    if (nValues != nvr) {
+        char why[200];
+        snprintf(why, sizeof why,
+                 "nValues: got %zu for %zu value references (this FMU has no array variables: one "
+                 "value per value reference)",
+                 nValues, nvr);
+        return fail(inst, f, why);
+    }
+    for (size_t i = 0; type != VALUE_REAL && i < nvr; i++)
+        if (vr[i] == TIME_VALUE_REFERENCE) {
+            char why[200];
+            snprintf(why, sizeof why, "value reference %u is 'time', a Float64 variable; use fmi3%sFloat64",
+                     TIME_VALUE_REFERENCE, f < F_SetFloat32 ? "Get" : "Set");
+            return fail(inst, f, why);
+        }
+    return BRIDGE_OK;
+}
+
+/* fmi3GetFloat64 with `time` among the value references: the others from the runtime, time from its clock. */
+static int get_with_time(Instance *inst, const fmi3ValueReference vr[], size_t nvr, double values[]) {
+    FrontInstance *front = &inst->front;
+    unsigned int *others = malloc(nvr * sizeof *others);
+    double *got = malloc(nvr * sizeof *got), now = 0.0;
+    if (!others || !got) {
+        free(others), free(got);
+        return fail(inst, F_GetFloat64, "out of memory");
+    }
+    size_t n = 0;
+    for (size_t i = 0; i < nvr; i++)
+        if (vr[i] != TIME_VALUE_REFERENCE) others[n++] = vr[i];
+    int status = n ? front->bridge->get_values(front->slave, VALUE_REAL, others, n, got) : BRIDGE_OK;
+    if (status <= BRIDGE_WARNING) {
+        int timed = front->bridge->last_successful_time(front->slave, &now);
+        if (timed > status) status = timed;
+    }
+    if (status <= BRIDGE_WARNING)
+        for (size_t i = 0, k = 0; i < nvr; i++) values[i] = vr[i] == TIME_VALUE_REFERENCE ? now : got[k++];
+    free(others), free(got);
+    return status;
+}
+
+static fmi3Status get_values(fmi3Instance instance, Function f, BridgeValueType type, const fmi3ValueReference vr[],
+                             size_t nvr, void *values, size_t nValues) {
+    Instance *inst = enter(instance, f);
+    if (!inst) return fmi3Error;
+    if (nvr == 0) return leave(inst, fmi3OK);
+    int status = check_values(inst, f, type, vr, nvr, values, nValues);
+    if (status != BRIDGE_OK) return leave(inst, status);
+    FrontInstance *front = &inst->front;
+    if (type == VALUE_REAL) {
+        for (size_t i = 0; i < nvr; i++)
+            if (vr[i] == TIME_VALUE_REFERENCE) return leave(inst, get_with_time(inst, vr, nvr, values));
+    } else if (type == VALUE_BOOLEAN) { /* the runtime's booleans are int */
+        int *got = malloc(nvr * sizeof *got);
+        if (!got) return leave(inst, fail(inst, f, "out of memory"));
+        status = front->bridge->get_values(front->slave, type, vr, nvr, got);
+        if (status <= BRIDGE_WARNING)
+            for (size_t i = 0; i < nvr; i++) ((fmi3Boolean *)values)[i] = got[i] != 0;
+        free(got);
+        return leave(inst, status);
+    }
+    return leave(inst, front->bridge->get_values(front->slave, type, vr, nvr, values));
+}
+
+static fmi3Status set_values(fmi3Instance instance, Function f, BridgeValueType type, const fmi3ValueReference vr[],
+                             size_t nvr, const void *values, size_t nValues) {
+    Instance *inst = enter(instance, f);
+    if (!inst) return fmi3Error;
+    if (nvr == 0) return leave(inst, fmi3OK);
+    int status = check_values(inst, f, type, vr, nvr, values, nValues);
+    if (status != BRIDGE_OK) return leave(inst, status);
+    FrontInstance *front = &inst->front;
+    for (size_t i = 0; type == VALUE_REAL && i < nvr; i++)
+        if (vr[i] == TIME_VALUE_REFERENCE) {
+            char why[200];
+            snprintf(why, sizeof why,
+                     "value reference %u is 'time', the independent variable: it cannot be set (fmi3DoStep "
+                     "advances it)",
+                     TIME_VALUE_REFERENCE);
+            return leave(inst, fail(inst, f, why));
+        }
+    if (type == VALUE_BOOLEAN) { /* the runtime's booleans are int */
+        int *given = malloc(nvr * sizeof *given);
+        if (!given) return leave(inst, fail(inst, f, "out of memory"));
+        for (size_t i = 0; i < nvr; i++) given[i] = ((const fmi3Boolean *)values)[i] ? 1 : 0;
+        status = front->bridge->set_values(front->slave, type, vr, nvr, given);
+        free(given);
+        return leave(inst, status);
+    }
+    return leave(inst, front->bridge->set_values(front->slave, type, vr, nvr, values));
+}
+
+fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          fmi3Float64 values[], size_t nValues) {
+    return get_values(instance, F_GetFloat64, VALUE_REAL, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3Int32 values[], size_t nValues) {
+    return get_values(instance, F_GetInt32, VALUE_INTEGER, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          fmi3Boolean values[], size_t nValues) {
+    return get_values(instance, F_GetBoolean, VALUE_BOOLEAN, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3String values[], size_t nValues) {
+    return get_values(instance, F_GetString, VALUE_STRING, valueReferences, nValueReferences, (void *)values, nValues);
+}
+fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          const fmi3Float64 values[], size_t nValues) {
+    return set_values(instance, F_SetFloat64, VALUE_REAL, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3Int32 values[], size_t nValues) {
+    return set_values(instance, F_SetInt32, VALUE_INTEGER, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          const fmi3Boolean values[], size_t nValues) {
+    return set_values(instance, F_SetBoolean, VALUE_BOOLEAN, valueReferences, nValueReferences, values, nValues);
+}
+fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3String values[], size_t nValues) {
+    return set_values(instance, F_SetString, VALUE_STRING, valueReferences, nValueReferences, (const void *)values,
+                      nValues);
+}
+
+/* ---- FMI 3.0: FMU state (front_common.c: the box, the serialised header and their checks) ------ */
+
+fmi3Status fmi3GetFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
+    Instance *inst = enter(instance, F_GetFMUState);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_get_state(&inst->front, CALLS[F_GetFMUState].name, FMUState));
+}
+
+fmi3Status fmi3SetFMUState(fmi3Instance instance, fmi3FMUState FMUState) {
+    Instance *inst = enter(instance, F_SetFMUState);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_set_state(&inst->front, CALLS[F_SetFMUState].name, FMUState));
+}
+
+fmi3Status fmi3FreeFMUState(fmi3Instance instance, fmi3FMUState *FMUState) {
+    Instance *inst = enter(instance, F_FreeFMUState);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_free_state(&inst->front, CALLS[F_FreeFMUState].name, FMUState));
+}
+
+fmi3Status fmi3SerializedFMUStateSize(fmi3Instance instance, fmi3FMUState FMUState, size_t *size) {
+    Instance *inst = enter(instance, F_SerializedFMUStateSize);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_serialized_state_size(&inst->front, CALLS[F_SerializedFMUStateSize].name, FMUState, size));
+}
+
+fmi3Status fmi3SerializeFMUState(fmi3Instance instance, fmi3FMUState FMUState, fmi3Byte serializedState[],
+                                 size_t size) {
+    Instance *inst = enter(instance, F_SerializeFMUState);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_serialize_state(&inst->front, CALLS[F_SerializeFMUState].name, FMUState,
+                                             (char *)serializedState, size));
+}
+
+fmi3Status fmi3DeserializeFMUState(fmi3Instance instance, const fmi3Byte serializedState[], size_t size,
+                                   fmi3FMUState *FMUState) {
+    Instance *inst = enter(instance, F_DeserializeFMUState);
+    if (!inst) return fmi3Error;
+    return leave(inst, front_deserialize_state(&inst->front, CALLS[F_DeserializeFMUState].name,
+                                               (const char *)serializedState, size, FMUState));
+}
+
+/* ---- FMI 3.0: co-simulation -------------------------------------------------------------------- */
+
+fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoint, fmi3Float64 communicationStepSize,
+                      fmi3Boolean noSetFMUStatePriorToCurrentPoint, fmi3Boolean *eventHandlingNeeded,
+                      fmi3Boolean *terminateSimulation, fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    Instance *inst = enter(instance, F_DoStep);
+    if (!inst) return fmi3Error;
+    FrontInstance *front = &inst->front;
+    double h = communicationStepSize;
+    int status;
+    if (!eventHandlingNeeded || !terminateSimulation || !earlyReturn || !lastSuccessfulTime)
+        return leave(inst, fail(inst, F_DoStep,
+                                "eventHandlingNeeded, terminateSimulation, earlyReturn or lastSuccessfulTime is NULL"));
+    *eventHandlingNeeded = fmi3False; /* no events */
+    *terminateSimulation = fmi3False; /* the FMU never asks the importer to stop */
+    *earlyReturn = fmi3False;         /* every step is taken whole, or refused */
+    if (!isfinite(currentCommunicationPoint)) {
+        status = fail(inst, F_DoStep, "currentCommunicationPoint is not finite (allowed: the FMU's time)");
+    } else if (!(isfinite(h) && h > 0)) {
+        status = fail(inst, F_DoStep, "communicationStepSize must be finite and > 0 s");
+    } else if (inst->stop_time_defined && currentCommunicationPoint + h > inst->stop_time + STOP_TIME_RTOL * h) {
+        char why[300];
+        snprintf(why, sizeof why,
+                 "communicationStepSize: the step from %.17g s by %.17g s ends after stopTime = %.17g s "
+                 "(fmi3EnterInitializationMode); allowed: steps ending at stopTime or before",
+                 currentCommunicationPoint, h, inst->stop_time);
+        status = fail(inst, F_DoStep, why);
+    } else {
+        status = front->bridge->do_step(front->slave, currentCommunicationPoint, h);
+    }
+    double reached = currentCommunicationPoint;
+    if (front->bridge->last_successful_time(front->slave, &reached) <= BRIDGE_WARNING) *lastSuccessfulTime = reached;
+    return leave(inst, status);
+}
+
+/* ---- FMI 3.0: what these FMUs do not provide --------------------------------------------------- */
+
+fmi3Status fmi3GetFloat32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          fmi3Float32 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetFloat32);
+}
+fmi3Status fmi3GetInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                       fmi3Int8 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetInt8);
+}
+fmi3Status fmi3GetUInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3UInt8 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetUInt8);
+}
+fmi3Status fmi3GetInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3Int16 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetInt16);
+}
+fmi3Status fmi3GetUInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3UInt16 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetUInt16);
+}
+fmi3Status fmi3GetUInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3UInt32 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetUInt32);
+}
+fmi3Status fmi3GetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3Int64 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetInt64);
+}
+fmi3Status fmi3GetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3UInt64 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_GetUInt64);
+}
+fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         size_t valueSizes[], fmi3Binary values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)valueSizes, (void)values, (void)nValues;
+    return not_provided(instance, F_GetBinary);
+}
+fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        fmi3Clock values[]) {
+    (void)valueReferences, (void)nValueReferences, (void)values;
+    return not_provided(instance, F_GetClock);
+}
+fmi3Status fmi3SetFloat32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                          const fmi3Float32 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetFloat32);
+}
+fmi3Status fmi3SetInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                       const fmi3Int8 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetInt8);
+}
+fmi3Status fmi3SetUInt8(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3UInt8 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetUInt8);
+}
+fmi3Status fmi3SetInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3Int16 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetInt16);
+}
+fmi3Status fmi3SetUInt16(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3UInt16 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetUInt16);
+}
+fmi3Status fmi3SetUInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3UInt32 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetUInt32);
+}
+fmi3Status fmi3SetInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3Int64 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetInt64);
+}
+fmi3Status fmi3SetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3UInt64 values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
+    return not_provided(instance, F_SetUInt64);
+}
+fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const size_t valueSizes[], const fmi3Binary values[], size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)valueSizes, (void)values, (void)nValues;
+    return not_provided(instance, F_SetBinary);
+}
+fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                        const fmi3Clock values[]) {
+    (void)valueReferences, (void)nValueReferences, (void)values;
+    return not_provided(instance, F_SetClock);
+}
+
+fmi3Status fmi3GetNumberOfVariableDependencies(fmi3Instance instance, fmi3ValueReference valueReference,
+                                               size_t *nDependencies) {
+    (void)valueReference, (void)nDependencies;
+    return not_provided(instance, F_GetNumberOfVariableDependencies);
+}
+fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference dependent,
+                                       size_t elementIndicesOfDependent[], fmi3ValueReference independents[],
+                                       size_t elementIndicesOfIndependents[], fmi3DependencyKind dependencyKinds[],
+                                       size_t nDependencies) {
+    (void)dependent, (void)elementIndicesOfDependent, (void)independents, (void)elementIndicesOfIndependents;
+    (void)dependencyKinds, (void)nDependencies;
+    return not_provided(instance, F_GetVariableDependencies);
+}
+
+fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                        const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                        size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
+    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
+    (void)nSensitivity;
+    return not_provided(instance, F_GetDirectionalDerivative);
+}
+fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                                    const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
+                                    size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
+    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
+    (void)nSensitivity;
+    return not_provided(instance, F_GetAdjointDerivative);
+}
+
+fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
+    return not_provided(instance, F_EnterConfigurationMode);
+}
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { return not_provided(instance, F_ExitConfigurationMode); }
+
+fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                  size_t nValueReferences, fmi3Float64 intervals[],
+                                  fmi3IntervalQualifier qualifiers[]) {
+    (void)valueReferences, (void)nValueReferences, (void)intervals, (void)qualifiers;
+    return not_provided(instance, F_GetIntervalDecimal);
+}
+fmi3Status fmi3GetIntervalFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                   size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[],
+                                   fmi3IntervalQualifier qualifiers[]) {
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions, (void)qualifiers;
+    return not_provided(instance, F_GetIntervalFraction);
+}
+fmi3Status fmi3GetShiftDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                               size_t nValueReferences, fmi3Float64 shifts[]) {
+    (void)valueReferences, (void)nValueReferences, (void)shifts;
+    return not_provided(instance, F_GetShiftDecimal);
+}
+fmi3Status fmi3GetShiftFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                size_t nValueReferences, fmi3UInt64 counters[], fmi3UInt64 resolutions[]) {
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, F_GetShiftFraction);
+}
+fmi3Status fmi3SetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                  size_t nValueReferences, const fmi3Float64 intervals[]) {
+    (void)valueReferences, (void)nValueReferences, (void)intervals;
+    return not_provided(instance, F_SetIntervalDecimal);
+}
+fmi3Status fmi3SetIntervalFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                   size_t nValueReferences, const fmi3UInt64 counters[],
+                                   const fmi3UInt64 resolutions[]) {
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, F_SetIntervalFraction);
+}
+fmi3Status fmi3SetShiftDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                               size_t nValueReferences, const fmi3Float64 shifts[]) {
+    (void)valueReferences, (void)nValueReferences, (void)shifts;
+    return not_provided(instance, F_SetShiftDecimal);
+}
+fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                size_t nValueReferences, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[]) {
+    (void)valueReferences, (void)nValueReferences, (void)counters, (void)resolutions;
+    return not_provided(instance, F_SetShiftFraction);
+}
+
+fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) {
+    return not_provided(instance, F_EvaluateDiscreteStates);
+}
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime) {
+    (void)discreteStatesNeedUpdate, (void)terminateSimulation, (void)nominalsOfContinuousStatesChanged;
+    (void)valuesOfContinuousStatesChanged, (void)nextEventTimeDefined, (void)nextEventTime;
+    return not_provided(instance, F_UpdateDiscreteStates);
+}
+
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
+    return not_provided(instance, F_EnterContinuousTimeMode);
+}
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
+    (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;
+    return not_provided(instance, F_CompletedIntegratorStep);
+}
+fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time) {
+    (void)time;
+    return not_provided(instance, F_SetTime);
+}
+fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
+                                   size_t nContinuousStates) {
+    (void)continuousStates, (void)nContinuousStates;
+    return not_provided(instance, F_SetContinuousStates);
+}
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
+                                             size_t nContinuousStates) {
+    (void)derivatives, (void)nContinuousStates;
+    return not_provided(instance, F_GetContinuousStateDerivatives);
+}
+fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators) {
+    (void)eventIndicators, (void)nEventIndicators;
+    return not_provided(instance, F_GetEventIndicators);
+}
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates) {
+    (void)continuousStates, (void)nContinuousStates;
+    return not_provided(instance, F_GetContinuousStates);
+}
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[], size_t nContinuousStates) {
+    (void)nominals, (void)nContinuousStates;
+    return not_provided(instance, F_GetNominalsOfContinuousStates);
+}
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators) {
+    (void)nEventIndicators;
+    return not_provided(instance, F_GetNumberOfEventIndicators);
+}
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates) {
+    (void)nContinuousStates;
+    return not_provided(instance, F_GetNumberOfContinuousStates);
+}
+
+fmi3Status fmi3EnterStepMode(fmi3Instance instance) { return not_provided(instance, F_EnterStepMode); }
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
+                                    size_t nValues) {
+    (void)valueReferences, (void)nValueReferences, (void)orders, (void)values, (void)nValues;
+    return not_provided(instance, F_GetOutputDerivatives);
+}
+fmi3Status fmi3ActivateModelPartition(fmi3Instance instance, fmi3ValueReference clockReference,
+                                      fmi3Float64 activationTime) {
+    (void)clockReference, (void)activationTime;
+    return not_provided(instance, F_ActivateModelPartition);
+}
