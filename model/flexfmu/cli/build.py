@@ -7,6 +7,20 @@ from pathlib import Path
 from flexfmu.errors import ParameterError
 
 
+def check_fmi_version(args: argparse.Namespace) -> None:
+    """--fmi-version 3 is the native runtime's: the Python runtime's FMUs are FMI 2.0 only for now."""
+    if args.fmi_version == 3 and args.runtime != "native":
+        raise ParameterError("fmi-version", "3 needs --runtime native (the Python runtime makes FMI 2.0 FMUs only, "
+                                            "for now)", "--fmi-version 2, or --runtime native --fmi-version 3")
+
+
+def add_fmi_version(parser) -> None:
+    """--fmi-version 2|3 on ``parser`` (flexfmu build and export)."""
+    parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2, metavar="{2,3}",
+                        help="2 (default): FMI 2.0 co-simulation; 3: FMI 3.0 co-simulation (--runtime native only; "
+                             "docs/fmu.md, 'FMI 3.0')")
+
+
 def _settings(pairs: list) -> dict:
     """--set NAME=VALUE (repeatable; a later one wins) -> {name: text}."""
     out = {}
@@ -22,10 +36,13 @@ def _build(args: argparse.Namespace) -> int:
     """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout; with --runtime
     native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
     out = args.out if args.out else Path("dist")
+    check_fmi_version(args)
     if args.runtime == "native":
         from flexfmu.fmi.native import build_registry_fmu
-        target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name)
-        print(f"built {target} (native runtime; fmpy validate: no problems)")
+        target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name,
+                                    fmi_version=args.fmi_version)
+        version = ", FMI 3.0" if args.fmi_version == 3 else ""
+        print(f"built {target} (native runtime{version}; fmpy validate: no problems)")
         return 0
     for option in ("fmu", "name"):
         if getattr(args, option) is not None:
@@ -52,4 +69,5 @@ def add_parser(sub) -> None:
                        help="native: a parameter's value, fixed at build (repeatable; e.g. --set boundary=XFX)")
     build.add_argument("--name", default=None, metavar="ID",
                        help="native: the model identifier and file stem (default: the FMU's name)")
+    add_fmi_version(build)
     build.set_defaults(func=_build)

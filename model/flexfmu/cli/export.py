@@ -5,6 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from flexfmu.cli.build import add_fmi_version, check_fmi_version
 from flexfmu.cli.model_file import add_model_options, load_user_model
 from flexfmu.errors import ParameterError
 
@@ -16,6 +17,7 @@ def _export(args: argparse.Namespace) -> int:
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
+    check_fmi_version(args)
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -31,8 +33,9 @@ def _export(args: argparse.Namespace) -> int:
                       tolerance=args.tolerance, damping_ratio=args.damping)
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
-    target = export_fmu(body, args.output, runtime=args.runtime)
-    print(f"wrote {target}: {body.summary()}" + (" (native runtime)" if args.runtime == "native" else ""))
+    target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version)
+    version = ", FMI 3.0" if args.fmi_version == 3 else ""
+    print(f"wrote {target}: {body.summary()}" + (f" (native runtime{version})" if args.runtime == "native" else ""))
     return 0
 
 
@@ -67,4 +70,5 @@ def add_parser(sub) -> None:
                         help="python (default): the FMU runs flexfmu in the host's Python; native: a C-only binary "
                              "with no Python (clamped and free bodies; a free body's scheme exponential fixed at build; docs/fmu.md, "
                              "'Native runtime')")
+    add_fmi_version(export)
     export.set_defaults(func=_export)
