@@ -318,6 +318,12 @@ writes `linux64` on any Linux).
 - **macOS**: `xcode-select --install` (clang) and CMake (e.g. `brew install cmake`); on Apple silicon add
   `-DCMAKE_OSX_ARCHITECTURES="arm64;x86_64"` for one library that runs on both (FMI 2.0 names both darwin64).
 - **Linux**: gcc or clang; the library links libc, libm, libpthread and libdl only.
+- **Cross-compiling** on Debian/Ubuntu (what the FMU's build does): for Windows, `apt-get install
+  gcc-mingw-w64-x86-64`, then `cmake -S sources -B build-win64 -DCMAKE_SYSTEM_NAME=Windows
+  -DCMAKE_C_COMPILER=x86_64-w64-mingw32-gcc -DCMAKE_BUILD_TYPE=Release`; for ARM Linux, `apt-get install
+  gcc-aarch64-linux-gnu`, then `cmake -S sources -B build-arm -DCMAKE_SYSTEM_NAME=Linux
+  -DCMAKE_SYSTEM_PROCESSOR=aarch64 -DCMAKE_C_COMPILER=aarch64-linux-gnu-gcc -DFMI_PLATFORM=aarch64-linux
+  -DCMAKE_BUILD_TYPE=Release`; each followed by `cmake --build` of its folder.
 
 Without CMake: compile `native_front.c flexfmu_fmi3.c flexfmu_native.c native_kinds.c native_lti.c native_reframe.c
 lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
