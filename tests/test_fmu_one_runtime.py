@@ -158,3 +158,21 @@ def test_nan_anywhere_in_a_python_simulators_state_is_refused(fmus, name):
                 assert any("not finite" in m for _, _, m in inst.log), (match.group(), bad, inst.log)
     finally:
         inst.free()
+
+
+def test_an_infinite_state_vector_is_refused_where_no_divergence_limit_is_set(tmp_path):
+    """The reframe kind has no divergence limit (+inf): +inf in a serialised state vector is still refused at
+    fmi2DeSerializeFMUstate (it passed the |x| <= limit test), as NaN is."""
+    from flexfmu.fmi import native
+    fmu = native.build_registry_fmu("ReframeBody", target=tmp_path / "ReframeBody.fmu")
+    inst = Instance(fmu, "r").initialize()
+    try:
+        inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=1e-3)
+        blob = bytes(inst.fmu.serializeFMUstate(inst.fmu.getFMUstate()))
+        for bad in (float("inf"), float("-inf"), float("nan")):   # the state vector's last entry, before the u64
+            changed = blob[:-16] + struct.pack("<d", bad) + blob[-8:]   # size of the kind's own state (0)
+            inst.log.clear()
+            inst.expect_failure(inst.fmu.deSerializeFMUstate, restamp_crc(changed))
+            assert any("not finite" in m for _, _, m in inst.log), (bad, inst.log)
+    finally:
+        inst.free()

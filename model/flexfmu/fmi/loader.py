@@ -71,7 +71,9 @@ def _runtime_copy(bundled: str, build_id: str) -> str:
             shutil.copytree(bundled, os.path.join(scratch, PACKAGE))
             with open(os.path.join(scratch, "complete"), "w") as file:
                 file.write(build_id)
-            if os.path.isdir(target):          # left incomplete by someone: move it out of the way
+            # a target with its marker is another process's complete copy, renamed into place while we copied
+            # (it may already be importing from it): never removed; one without is left incomplete by someone
+            if os.path.isdir(target) and not os.path.isfile(marker):
                 shutil.rmtree(target, ignore_errors=True)
             try:
                 os.rename(scratch, target)

@@ -1390,7 +1390,7 @@ static int deserialize_state(void *slave, const char *bytes, size_t size, void *
     for (size_t i = 0; !bad && i < m->layout.n_outputs; i++)
         if (!isfinite(st->outputs[i])) bad = "outputs not finite";
     for (size_t i = 0; !bad && i < m->nx; i++)
-        if (!(fabs(st->x[i]) <= m->divergence_limit))
+        if (!isfinite(st->x[i]) || !(fabs(st->x[i]) <= m->divergence_limit)) /* the limit may be +inf */
             bad = "the state vector is not finite or beyond the divergence limit";
     if (bad) {
         free_state(st);
