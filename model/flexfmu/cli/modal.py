@@ -158,7 +158,7 @@ def add_parser(sub) -> None:
     modal.add_argument("--max-dofs", type=int, default=None, metavar="N",
                        help=f"largest model set up, in DOFs (default: {MAX_SOLID_DOFS:,} for a model file, "
                             f"{MAX_BEAM_DOFS:,} per mesh of a scene: the sizes that fit 60 s and 8 GB on the reference "
-                            "machine, docs/performance.md; or the environment variable FLEXFMU_MAX_DOFS)")
+                            "machine, docs/export.md; or the environment variable FLEXFMU_MAX_DOFS)")
     modal.set_defaults(func=_modal)
 
 

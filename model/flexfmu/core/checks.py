@@ -191,14 +191,18 @@ def non_finite(name: str, what: str, value=None, unit: str = "") -> NonFiniteErr
 # ------------------------------------------------------------------------------------------- model size limits
 #: The largest models flexfmu sets up unless told otherwise, in degrees of freedom (DOFs): the size whose set-up
 #: fits 60 s of wall time and 8 GB of memory by the growth fitted to set-up times measured on the reference machine
-#: (benchmarks/model_size_limits.py; docs/performance.md, "Model size limits", has the measurements and the fits).
+#: (benchmarks/model_size_limits.py; docs/export.md, "Model size limits", has the measurements and the fits).
 #: FFR beam models (6 DOFs per node): FFRBeam's, ReframeBody's beam:<scene>, and each mesh of flexfmu modal's
 #: refinement of a scene.  A scene's model has at least 6 x (segments + 1) DOFs (one element per segment), so a scene
-#: with too many segments is refused as soon as its points are counted.
+#: with too many segments is refused as soon as its points are counted.  FFRBeam's set-up of the slowest scenes
+#: measured (long slender zig-zag rods) grows as ~n^3: 60 s at 67k DOFs with 4-6 other jobs on the 2 cores, 104k
+#: with 1-2; memory 8 GB only near 2.5M DOFs.
 MAX_BEAM_DOFS = 60_000
 #: Solid models of ``flexfmu modal`` (a mesh's 3 DOFs per node, checked before the mesh is assembled; other model
-#: files when they are read): assembly, model checks and the lowest modes.
-MAX_SOLID_DOFS = 150_000
+#: files when they are read): reading, assembly, the model checks and the lowest modes, ~n^1.1: a tet4 box of 107k
+#: DOFs took 42 s (free) and 33 s (clamped) and 1.5 GB with 1-2 other jobs running (59-83 s with 4-5); 60 s at
+#: 146k DOFs by the fit, 8 GB at ~400k.
+MAX_SOLID_DOFS = 110_000
 #: The environment variable that replaces both limits, a whole number of DOFs, where no option does: the FMUs
 #: FFRBeam and ReframeBody and library calls (the CLI's ``--max-dofs`` wins over it).
 MAX_DOFS_ENV = "FLEXFMU_MAX_DOFS"
@@ -220,7 +224,7 @@ class DofLimit:
         model and how its size comes about), the limit and what to do (``smaller``: how to make the model smaller)."""
         if int(n_dof) <= self.limit:
             return
-        basis = ("the size whose set-up fits 60 s and 8 GB on the reference machine, docs/performance.md"
+        basis = ("the size whose set-up fits 60 s and 8 GB on the reference machine, docs/export.md"
                  if self.default else "the limit set")
         raise ParameterError(parameter, f"{what} has {int(n_dof):,} DOFs, more than the {self.limit:,} DOFs allowed "
                              f"({basis})", f"at most {self.limit:,} DOFs: {smaller}; or raise the limit with "

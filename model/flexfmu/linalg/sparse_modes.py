@@ -7,7 +7,7 @@ precision and the residual check of every mode, as there.
 flexfmu.linalg.modal.solve_modes' sparse path (ARPACK's single-vector eigsh in shift-invert mode on SuperLU,
 factorised twice: once to estimate the shift) suits the banded beam models it serves; on a solid mesh SuperLU's
 factor fills in and ARPACK needs many solves: a clamped tet4 box of 56 355 DOFs took 212 s and 1.4 GB there
-(docs/performance.md, "Model size limits", has this path's times).
+(docs/export.md, "Model size limits", has this path's times).
 """
 from __future__ import annotations
 
