@@ -25,8 +25,12 @@ def table() -> dict[str, list[str] | None]:
     rows = {}
     header = next(line for line in text.splitlines() if line.startswith("| function | Instantiated"))
     assert [c.strip() for c in header.strip("|").split("|")][1:] == STATES
-    for line in text.splitlines():
+    lines = text.splitlines()
+    first = next(i for i, line in enumerate(lines) if line.startswith("| function | Instantiated")) + 2
+    for line in lines[first:]:   # the table's rows: up to the first line that is not one
         match = re.match(r"\| (fmi2\w+) \|(.*)\|$", line)
+        if not match:
+            break
         if match:
             cells = [c.strip() for c in match.group(2).split("|")]
             assert len(cells) == len(STATES), line

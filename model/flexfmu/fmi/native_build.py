@@ -131,7 +131,9 @@ def model_entries(source: NativeSource, guid: str) -> dict:
         messages=source.messages, divergence_limit=source.divergence_limit,
         divergence_allowed=source.divergence_allowed, rebuild=source.rebuild, rebuild_settings=source.rebuild_settings)
     if source.kind == "lti":
+        from flexfmu.fmi.interfaces import state_nominals
         entries.update(_lti_entries(source.lti, inputs, outputs, params, source))
+        entries["state.nominal"] = state_nominals(source.lti)
     else:
         entries.update(source.kind_entries(inputs, outputs, params))
     return entries
@@ -396,10 +398,30 @@ def _rebuild_text(source: NativeSource) -> str:
 
 
 # ---------------------------------------------------------------------------------------------- the FMU
-def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2) -> Path:
+def with_interfaces(description: bytes, source: NativeSource, fmi_version: int, types: tuple) -> bytes:
+    """The modelDescription ``description`` (co-simulation) with the interface ``types`` ("cs", "me") and, for a kind
+    that gives them, directional derivatives (flexfmu.fmi.interfaces)."""
+    from flexfmu.fmi import interfaces
+    from flexfmu.fmi.variables import table
+
+    directional = source.kind in interfaces.ODE_KINDS
+    if types == ("cs",) and not directional:
+        return description
+    root = ET.fromstring(description)
+    complete = interfaces.complete_fmi2 if fmi_version == 2 else interfaces.complete_fmi3
+    complete(root, name=source.name, n_vars=len(table(source.spec, source.values)),
+             nx=source.lti.nx if "me" in types else 0, types=types, directional=directional,
+             nominals=interfaces.state_nominals(source.lti) if "me" in types else None)
+    ET.indent(root, "\t")
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+
+
+def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, interface: str = "cs") -> Path:
     """Write the native FMU of ``source`` at ``target`` (NAME.fmu) and check it with fmpy's validation; ``fmi_version``
-    3: an FMI 3.0 co-simulation FMU (flexfmu.fmi.description_fmi3: its modelDescription, platform folders and
-    buildDescription) of the same binary."""
+    3: an FMI 3.0 FMU (flexfmu.fmi.description_fmi3: its modelDescription, platform folders and buildDescription) of
+    the same binary; ``interface``: "cs" (co-simulation), "me" (model exchange) or "both" (flexfmu.fmi.interfaces:
+    model exchange for the kinds that are ODEs in fixed coordinates)."""
+    from flexfmu.fmi.interfaces import check_interface
     from fmpy.validation import validate_fmu
 
     from flexfmu import __version__
@@ -412,8 +434,10 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2) -> P
     with tempfile.TemporaryDirectory(prefix="flexfmu-native-") as tmp:
         if fmi_version not in (2, 3):
             raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
+        types = check_interface(source.kind, interface)
         description = model_description(source, guid) if fmi_version == 2 else description_fmi3.model_description(
             source, guid)
+        description = with_interfaces(description, source, fmi_version, types)
         entries = model_entries(source, guid)
         built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
         frozen = {k: v for k, v in built.items() if k not in runtime_names}
@@ -427,6 +451,7 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2) -> P
         info = {"version": __version__, "runtime": "native", "model": source.name, "kind": source.kind, "guid": guid,
                 "format_version": FORMAT_VERSION, "parameters_fixed": frozen,
                 "runtime_parameters": sorted(runtime_names), "platforms": sorted(binaries),
+                "interfaces": list(types),
                 "platforms_missing": missing, **source.info}
         members = {
             "modelDescription.xml": description,

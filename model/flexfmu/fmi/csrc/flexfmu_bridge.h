@@ -10,7 +10,7 @@
 
 #include <stddef.h>
 
-#define FLEXFMU_BRIDGE_VERSION 1
+#define FLEXFMU_BRIDGE_VERSION 2
 
 /* Statuses as fmi2Status (0 OK, 1 Warning, 2 Discard, 3 Error, 4 Fatal). */
 enum { BRIDGE_OK = 0, BRIDGE_WARNING = 1, BRIDGE_DISCARD = 2, BRIDGE_ERROR = 3, BRIDGE_FATAL = 4 };
@@ -59,6 +59,22 @@ typedef struct {
     int (*deserialize_state)(void *slave, const char *bytes, size_t size, void **state);
     /* the time of the last successful step (fmi2LastSuccessfulTime) */
     int (*last_successful_time)(void *slave, double *time);
+    /* Model exchange and directional derivatives (version 2).  `function` is the FMI function the front runs, named
+       in a refusal.  The continuous states have the value references n_vars .. n_vars + nx - 1 and their
+       derivatives the next nx (n_vars: the model file's variables), readable with get_values (Real). */
+    size_t (*n_states)(void *slave); /* 0: the model is co-simulation only */
+    /* the host integrates this instance (model exchange): refused when the model is co-simulation only */
+    int (*model_exchange)(void *slave, const char *function);
+    int (*set_time)(void *slave, const char *function, double time);
+    /* set 0: x = the continuous states; set 1: the continuous states = x (nx of them) */
+    int (*continuous_states)(void *slave, const char *function, int set, double *x, size_t nx);
+    int (*derivatives)(void *slave, const char *function, double *dx, size_t nx);
+    /* sensitivity[i] = sum_j d unknown[i] / d known[j] seed[j]: unknowns outputs or state derivatives, knowns inputs
+       or states, at the current state and the inputs as last set */
+    int (*directional)(void *slave, const char *function, const unsigned int *unknown, size_t n_unknown,
+                       const unsigned int *known, size_t n_known, const double *seed, double *sensitivity);
+    /* the continuous states' nominal values (their typical sizes: a host scales its absolute tolerance by them) */
+    int (*nominals)(void *slave, double *x, size_t nx);
 } BridgeApi;
 
 /* The bridge library's one exported symbol. */

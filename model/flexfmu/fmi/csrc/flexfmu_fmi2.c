@@ -1,5 +1,6 @@
 /*
- * flexfmu_fmi2.c - the FMI 2.0 co-simulation front of the flexfmu FMUs (binaries/linux64/<id>.so).
+ * flexfmu_fmi2.c - the FMI 2.0 front of the flexfmu FMUs (binaries/linux64/<id>.so): co-simulation, and model
+ * exchange for the models that are ODEs in fixed coordinates (the runtime says which: BridgeApi.n_states).
  *
  * It links no Python: any FMI host can load it (dlopen with RTLD_NOW, RTLD_LOCAL) on the machine the
  * FMU was built on with no set-up.  On the first fmi2Instantiate it
@@ -46,11 +47,16 @@ typedef enum {
     Error = 1 << 5,              /* after fmi2Error from a call that moves the model: fmi2ExitInitializationMode,
                                     fmi2DoStep, fmi2Reset, fmi2SetFMUstate.  A refused get/set of values,
                                     set-up, logging or FMU-state call leaves the state as it was. */
+    EventMode = 1 << 6,          /* model exchange: after fmi2ExitInitializationMode, fmi2EnterEventMode */
+    ContinuousTimeMode = 1 << 7, /* model exchange: after fmi2EnterContinuousTimeMode */
 } State;
 
-#define ALL_STATES (Instantiated | InitializationMode | StepComplete | StepFailed | Terminated | Error)
-#define VALUES_READABLE (InitializationMode | StepComplete | StepFailed | Terminated | Error)
-#define VALUES_WRITABLE (Instantiated | InitializationMode | StepComplete)
+#define ME_MODES (EventMode | ContinuousTimeMode)
+#define ALL_STATES (Instantiated | InitializationMode | StepComplete | StepFailed | Terminated | Error | ME_MODES)
+#define VALUES_READABLE (InitializationMode | StepComplete | StepFailed | Terminated | Error | ME_MODES)
+#define VALUES_WRITABLE (Instantiated | InitializationMode | StepComplete | ME_MODES)
+/* the model is made at fmi2ExitInitializationMode: states, derivatives and directional derivatives from there on */
+#define MODEL_READABLE (StepComplete | StepFailed | Terminated | Error | ME_MODES)
 
 typedef enum {
     F_SetDebugLogging,
@@ -84,6 +90,16 @@ typedef enum {
     F_GetIntegerStatus,
     F_GetBooleanStatus,
     F_GetStringStatus,
+    F_EnterEventMode,
+    F_NewDiscreteStates,
+    F_EnterContinuousTimeMode,
+    F_CompletedIntegratorStep,
+    F_SetTime,
+    F_SetContinuousStates,
+    F_GetDerivatives,
+    F_GetEventIndicators,
+    F_GetContinuousStates,
+    F_GetNominalsOfContinuousStates,
     F_COUNT
 } Function;
 
@@ -95,7 +111,7 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_SetupExperiment] = {"fmi2SetupExperiment", Instantiated, NULL},
     [F_EnterInitializationMode] = {"fmi2EnterInitializationMode", Instantiated, NULL},
     [F_ExitInitializationMode] = {"fmi2ExitInitializationMode", InitializationMode, NULL},
-    [F_Terminate] = {"fmi2Terminate", StepComplete | StepFailed | Error, NULL},
+    [F_Terminate] = {"fmi2Terminate", StepComplete | StepFailed | Error | ME_MODES, NULL},
     [F_Reset] = {"fmi2Reset", ALL_STATES, NULL},
     [F_FreeInstance] = {"fmi2FreeInstance", ALL_STATES, NULL},
     [F_GetReal] = {"fmi2GetReal", VALUES_READABLE, NULL},
@@ -112,8 +128,7 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_SerializedFMUstateSize] = {"fmi2SerializedFMUstateSize", ALL_STATES, NULL},
     [F_SerializeFMUstate] = {"fmi2SerializeFMUstate", ALL_STATES, NULL},
     [F_DeSerializeFMUstate] = {"fmi2DeSerializeFMUstate", ALL_STATES, NULL},
-    [F_GetDirectionalDerivative]
-    = {"fmi2GetDirectionalDerivative", 0, "not supported (providesDirectionalDerivative is false)"},
+    [F_GetDirectionalDerivative] = {"fmi2GetDirectionalDerivative", MODEL_READABLE, NULL},
     [F_SetRealInputDerivatives] = {"fmi2SetRealInputDerivatives", 0, "not supported (canInterpolateInputs is false)"},
     [F_GetRealOutputDerivatives] = {"fmi2GetRealOutputDerivatives", 0, "not supported (maxOutputDerivativeOrder is 0)"},
     [F_DoStep] = {"fmi2DoStep", StepComplete, NULL},
@@ -123,6 +138,18 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_GetIntegerStatus] = {"fmi2GetIntegerStatus", StepComplete | StepFailed | Terminated, NULL},
     [F_GetBooleanStatus] = {"fmi2GetBooleanStatus", StepComplete | StepFailed | Terminated, NULL},
     [F_GetStringStatus] = {"fmi2GetStringStatus", StepComplete | StepFailed | Terminated, NULL},
+    /* model exchange (a co-simulation instance never is in EventMode or ContinuousTimeMode) */
+    [F_EnterEventMode] = {"fmi2EnterEventMode", ME_MODES, NULL},
+    [F_NewDiscreteStates] = {"fmi2NewDiscreteStates", EventMode, NULL},
+    [F_EnterContinuousTimeMode] = {"fmi2EnterContinuousTimeMode", EventMode, NULL},
+    [F_CompletedIntegratorStep] = {"fmi2CompletedIntegratorStep", ContinuousTimeMode, NULL},
+    [F_SetTime] = {"fmi2SetTime", ME_MODES, NULL},
+    [F_SetContinuousStates] = {"fmi2SetContinuousStates", ContinuousTimeMode, NULL},
+    [F_GetDerivatives] = {"fmi2GetDerivatives", ME_MODES | Terminated | Error, NULL},
+    [F_GetEventIndicators] = {"fmi2GetEventIndicators", InitializationMode | ME_MODES | Terminated | Error, NULL},
+    [F_GetContinuousStates] = {"fmi2GetContinuousStates", ME_MODES | Terminated | Error, NULL},
+    [F_GetNominalsOfContinuousStates]
+    = {"fmi2GetNominalsOfContinuousStates", Instantiated | ME_MODES | Terminated | Error, NULL},
 };
 
 static const char *state_name(int state) {
@@ -133,6 +160,8 @@ static const char *state_name(int state) {
     case StepFailed: return "StepFailed";
     case Terminated: return "Terminated";
     case Error: return "Error";
+    case EventMode: return "EventMode";
+    case ContinuousTimeMode: return "ContinuousTimeMode";
     default: return "?";
     }
 }
@@ -164,6 +193,8 @@ static const FrontVersion FMI2 = {.magic = INSTANCE_MAGIC,
                                   .all_states = ALL_STATES,
                                   .error_state = Error, /* set by the calls that move the model, as they fail */
                                   .every_error = 0,
+                                  .me_states = ME_MODES,
+                                  .cs_states = StepComplete | StepFailed,
                                   .error_name = "fmi2Error",
                                   .serialized_size_name = "fmi2SerializedFMUstateSize",
                                   .state_name = state_name,
@@ -202,11 +233,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     Instance *inst = front_new_instance(&FMI2, sizeof *inst, Instantiated, instanceName, fmuGUID, loggingOn,
                                         (FrontLogger)functions->logger, functions->componentEnvironment);
     if (!inst) return NULL;
-    if (fmuType != fmi2CoSimulation) {
-        fail(inst, "fmi2Instantiate", "fmuType: this FMU supports co-simulation only (fmi2CoSimulation)");
+    if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
+        fail(inst, "fmi2Instantiate", "fmuType: got neither fmi2ModelExchange nor fmi2CoSimulation");
         front_free_instance_memory(inst);
         return NULL;
     }
+    inst->model_exchange = fmuType == fmi2ModelExchange;
     char resources[4096];
     if (front_resources_from_uri(fmuResourceLocation, resources, sizeof resources) < 0) {
         fail(inst, "fmi2Instantiate",
@@ -216,6 +248,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     }
     if (front_instantiate_slave(inst, "fmi2Instantiate", resources, visible) < 0) {
+        front_free_instance_memory(inst);
+        return NULL;
+    }
+    if (inst->model_exchange && inst->bridge->model_exchange(inst->slave, "fmi2Instantiate") != fmi2OK) {
+        inst->bridge->free_instance(inst->slave);
         front_free_instance_memory(inst);
         return NULL;
     }
@@ -256,7 +293,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Instance *inst = enter(c, F_ExitInitializationMode, &refused);
     if (!inst) return refused;
     int status = inst->bridge->simple_call(inst->slave, CALL_EXIT_INITIALIZATION_MODE);
-    inst->state = status <= fmi2Warning ? StepComplete : Error;
+    inst->state = status > fmi2Warning ? Error : inst->model_exchange ? EventMode : StepComplete;
     return leave(inst, status);
 }
 
@@ -370,16 +407,115 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     return leave(inst, front_deserialize_state(inst, "fmi2DeSerializeFMUstate", serializedState, size, FMUstate));
 }
 
-/* ---- FMI 2.0: what these FMUs do not provide --------------------------------------------------- */
+/* ---- FMI 2.0: directional derivatives ------------------------------------------------------------ */
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
                                         const fmi2ValueReference vKnown_ref[], size_t nKnown, const fmi2Real dvKnown[],
                                         fmi2Real dvUnknown[]) {
-    (void)vUnknown_ref, (void)nUnknown, (void)vKnown_ref, (void)nKnown, (void)dvKnown, (void)dvUnknown;
     fmi2Status refused;
-    enter(c, F_GetDirectionalDerivative, &refused);
-    return refused;
+    Instance *inst = enter(c, F_GetDirectionalDerivative, &refused);
+    if (!inst) return refused;
+    if (nUnknown == 0) return leave(inst, fmi2OK);
+    if (!vUnknown_ref || !dvUnknown || (nKnown > 0 && (!vKnown_ref || !dvKnown)))
+        return leave(inst, fail(inst, "fmi2GetDirectionalDerivative", "a value-reference or value array is NULL"));
+    return leave(inst, inst->bridge->directional(inst->slave, "fmi2GetDirectionalDerivative", vUnknown_ref, nUnknown,
+                                                 vKnown_ref, nKnown, dvKnown, dvUnknown));
 }
+
+/* ---- FMI 2.0: model exchange (no events: the models are linear ODEs with inputs) ------------------ */
+
+fmi2Status fmi2EnterEventMode(fmi2Component c) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_EnterEventMode, &refused);
+    if (!inst) return refused;
+    inst->state = EventMode;
+    return leave(inst, fmi2OK);
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_NewDiscreteStates, &refused);
+    if (!inst) return refused;
+    if (!info) return leave(inst, fail(inst, "fmi2NewDiscreteStates", "fmi2EventInfo is NULL"));
+    info->newDiscreteStatesNeeded = fmi2False;
+    info->terminateSimulation = fmi2False;
+    info->nominalsOfContinuousStatesChanged = fmi2False;
+    info->valuesOfContinuousStatesChanged = fmi2False;
+    info->nextEventTimeDefined = fmi2False; /* no time events */
+    info->nextEventTime = 0.0;
+    return leave(inst, fmi2OK);
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_EnterContinuousTimeMode, &refused);
+    if (!inst) return refused;
+    inst->state = ContinuousTimeMode;
+    return leave(inst, fmi2OK);
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
+    (void)noSetFMUStatePriorToCurrentPoint;
+    fmi2Status refused;
+    Instance *inst = enter(c, F_CompletedIntegratorStep, &refused);
+    if (!inst) return refused;
+    if (!enterEventMode || !terminateSimulation)
+        return leave(inst, fail(inst, "fmi2CompletedIntegratorStep", "enterEventMode or terminateSimulation is NULL"));
+    *enterEventMode = fmi2False; /* no step events */
+    *terminateSimulation = fmi2False;
+    return leave(inst, fmi2OK);
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_SetTime, &refused);
+    if (!inst) return refused;
+    return leave(inst, inst->bridge->set_time(inst->slave, "fmi2SetTime", time));
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_SetContinuousStates, &refused);
+    if (!inst) return refused;
+    if (!x && nx > 0) return leave(inst, fail(inst, "fmi2SetContinuousStates", "x is NULL"));
+    return leave(inst, inst->bridge->continuous_states(inst->slave, "fmi2SetContinuousStates", 1, (double *)x, nx));
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_GetContinuousStates, &refused);
+    if (!inst) return refused;
+    if (!x && nx > 0) return leave(inst, fail(inst, "fmi2GetContinuousStates", "x is NULL"));
+    return leave(inst, inst->bridge->continuous_states(inst->slave, "fmi2GetContinuousStates", 0, x, nx));
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_GetDerivatives, &refused);
+    if (!inst) return refused;
+    if (!derivatives && nx > 0) return leave(inst, fail(inst, "fmi2GetDerivatives", "derivatives is NULL"));
+    return leave(inst, inst->bridge->derivatives(inst->slave, "fmi2GetDerivatives", derivatives, nx));
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni) {
+    (void)eventIndicators;
+    fmi2Status refused;
+    Instance *inst = enter(c, F_GetEventIndicators, &refused);
+    if (!inst) return refused;
+    if (ni != 0) return leave(inst, fail(inst, "fmi2GetEventIndicators", "ni: this model has 0 event indicators"));
+    return leave(inst, fmi2OK);
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx) {
+    fmi2Status refused;
+    Instance *inst = enter(c, F_GetNominalsOfContinuousStates, &refused);
+    if (!inst) return refused;
+    if (!x_nominal && nx > 0) return leave(inst, fail(inst, "fmi2GetNominalsOfContinuousStates", "x_nominal is NULL"));
+    return leave(inst, inst->bridge->nominals(inst->slave, x_nominal, nx));
+}
+
+/* ---- FMI 2.0: what these FMUs do not provide --------------------------------------------------- */
 
 fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t nvr,
                                        const fmi2Integer order[], const fmi2Real value[]) {

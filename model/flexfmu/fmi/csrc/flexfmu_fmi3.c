@@ -1,11 +1,13 @@
 /*
- * flexfmu_fmi3.c - the FMI 3.0 co-simulation front of the native flexfmu FMUs (binaries/x86_64-linux/<id>.so).
+ * flexfmu_fmi3.c - the FMI 3.0 front of the native flexfmu FMUs (binaries/x86_64-linux/<id>.so): co-simulation, and
+ * model exchange for the models that are ODEs in fixed coordinates (the runtime says which: BridgeApi.n_states).
  *
  * The same library as the FMI 2.0 front's (flexfmu_fmi2.c, with front_common.c: the instance, its lock, logging and
  * the refusal of re-entrant calls, the FMU-state box and its serialised header, the resources folder, the bridge),
  * over the same runtime (flexfmu_native.c and its kinds): one binary serves an FMI 2.0 and an FMI 3.0 FMU.  This
  * file holds what FMI 3.0 defines: its entry points, its call-sequence table (the standard's state machine for
- * co-simulation without Event Mode: eventModeUsed = false), its argument checks and its logger.
+ * co-simulation without Event Mode: eventModeUsed = false; model exchange with an Event Mode that never has events
+ * to handle), its argument checks and its logger.
  *
  * What differs from the FMI 2.0 front:
  *  - fmi3EnterInitializationMode takes the experiment (tolerance, startTime, stopTime: fmi2SetupExperiment's
@@ -50,11 +52,16 @@ typedef enum {
     InitializationMode = 1 << 1, /* after fmi3EnterInitializationMode */
     StepMode = 1 << 2,           /* after fmi3ExitInitializationMode, fmi3DoStep (fmi3OK, fmi3Warning, fmi3Discard) */
     Terminated = 1 << 4,         /* after fmi3Terminate, and after any call that returned fmi3Error */
+    EventMode = 1 << 5,          /* model exchange: after fmi3ExitInitializationMode, fmi3EnterEventMode */
+    ContinuousTimeMode = 1 << 6, /* model exchange: after fmi3EnterContinuousTimeMode */
 } State;
 
-#define ALL_STATES (Instantiated | InitializationMode | StepMode | Terminated)
-#define VALUES_READABLE (InitializationMode | StepMode | Terminated)
-#define VALUES_WRITABLE (Instantiated | InitializationMode | StepMode)
+#define ME_MODES (EventMode | ContinuousTimeMode)
+#define ALL_STATES (Instantiated | InitializationMode | StepMode | Terminated | ME_MODES)
+#define VALUES_READABLE (InitializationMode | StepMode | Terminated | ME_MODES)
+#define VALUES_WRITABLE (Instantiated | InitializationMode | StepMode | ME_MODES)
+/* the model is made at fmi3ExitInitializationMode: states, derivatives and directional derivatives from there on */
+#define MODEL_READABLE (StepMode | Terminated | ME_MODES)
 
 typedef enum {
     F_SetDebugLogging,
@@ -134,7 +141,6 @@ typedef enum {
 #define NO_TYPE "not provided: this FMU has variables of the types Float64, Int32, Boolean and String only"
 #define NO_EVENT_MODE "not provided: this FMU has no Event Mode (hasEventMode is false)"
 #define NO_CLOCKS "not provided: this FMU has no clocks"
-#define NO_MODEL_EXCHANGE "not provided: this FMU is for co-simulation only (no model exchange)"
 #define NO_SCHEDULED_EXECUTION "not provided: this FMU is for co-simulation only (no scheduled execution)"
 
 /* The one legal-call table (docs/fmu.md prints it): the FMI 3.0 standard's co-simulation state machine without
@@ -145,8 +151,8 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_FreeInstance] = {"fmi3FreeInstance", ALL_STATES, NULL},
     [F_EnterInitializationMode] = {"fmi3EnterInitializationMode", Instantiated, NULL},
     [F_ExitInitializationMode] = {"fmi3ExitInitializationMode", InitializationMode, NULL},
-    [F_EnterEventMode] = {"fmi3EnterEventMode", 0, NO_EVENT_MODE},
-    [F_Terminate] = {"fmi3Terminate", StepMode, NULL},
+    [F_EnterEventMode] = {"fmi3EnterEventMode", ME_MODES, NULL}, /* co-simulation: no Event Mode */
+    [F_Terminate] = {"fmi3Terminate", StepMode | ME_MODES, NULL},
     [F_Reset] = {"fmi3Reset", ALL_STATES, NULL},
     [F_GetFloat32] = {"fmi3GetFloat32", 0, NO_TYPE},
     [F_GetFloat64] = {"fmi3GetFloat64", VALUES_READABLE, NULL},
@@ -186,8 +192,7 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_SerializedFMUStateSize] = {"fmi3SerializedFMUStateSize", ALL_STATES, NULL},
     [F_SerializeFMUState] = {"fmi3SerializeFMUState", ALL_STATES, NULL},
     [F_DeserializeFMUState] = {"fmi3DeserializeFMUState", ALL_STATES, NULL},
-    [F_GetDirectionalDerivative]
-    = {"fmi3GetDirectionalDerivative", 0, "not provided (providesDirectionalDerivative is false)"},
+    [F_GetDirectionalDerivative] = {"fmi3GetDirectionalDerivative", MODEL_READABLE, NULL},
     [F_GetAdjointDerivative] = {"fmi3GetAdjointDerivative", 0, "not provided (providesAdjointDerivatives is false)"},
     [F_EnterConfigurationMode]
     = {"fmi3EnterConfigurationMode", 0, "not provided: this FMU has no structural parameters"},
@@ -200,18 +205,19 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_SetIntervalFraction] = {"fmi3SetIntervalFraction", 0, NO_CLOCKS},
     [F_SetShiftDecimal] = {"fmi3SetShiftDecimal", 0, NO_CLOCKS},
     [F_SetShiftFraction] = {"fmi3SetShiftFraction", 0, NO_CLOCKS},
-    [F_EvaluateDiscreteStates] = {"fmi3EvaluateDiscreteStates", 0, NO_EVENT_MODE},
-    [F_UpdateDiscreteStates] = {"fmi3UpdateDiscreteStates", 0, NO_EVENT_MODE},
-    [F_EnterContinuousTimeMode] = {"fmi3EnterContinuousTimeMode", 0, NO_MODEL_EXCHANGE},
-    [F_CompletedIntegratorStep] = {"fmi3CompletedIntegratorStep", 0, NO_MODEL_EXCHANGE},
-    [F_SetTime] = {"fmi3SetTime", 0, NO_MODEL_EXCHANGE},
-    [F_SetContinuousStates] = {"fmi3SetContinuousStates", 0, NO_MODEL_EXCHANGE},
-    [F_GetContinuousStateDerivatives] = {"fmi3GetContinuousStateDerivatives", 0, NO_MODEL_EXCHANGE},
-    [F_GetEventIndicators] = {"fmi3GetEventIndicators", 0, NO_MODEL_EXCHANGE},
-    [F_GetContinuousStates] = {"fmi3GetContinuousStates", 0, NO_MODEL_EXCHANGE},
-    [F_GetNominalsOfContinuousStates] = {"fmi3GetNominalsOfContinuousStates", 0, NO_MODEL_EXCHANGE},
-    [F_GetNumberOfEventIndicators] = {"fmi3GetNumberOfEventIndicators", 0, NO_MODEL_EXCHANGE},
-    [F_GetNumberOfContinuousStates] = {"fmi3GetNumberOfContinuousStates", 0, NO_MODEL_EXCHANGE},
+    /* model exchange (a co-simulation instance is never in EventMode or ContinuousTimeMode) */
+    [F_EvaluateDiscreteStates] = {"fmi3EvaluateDiscreteStates", ME_MODES, NULL},
+    [F_UpdateDiscreteStates] = {"fmi3UpdateDiscreteStates", EventMode, NULL},
+    [F_EnterContinuousTimeMode] = {"fmi3EnterContinuousTimeMode", EventMode, NULL},
+    [F_CompletedIntegratorStep] = {"fmi3CompletedIntegratorStep", ContinuousTimeMode, NULL},
+    [F_SetTime] = {"fmi3SetTime", ME_MODES, NULL},
+    [F_SetContinuousStates] = {"fmi3SetContinuousStates", ContinuousTimeMode, NULL},
+    [F_GetContinuousStateDerivatives] = {"fmi3GetContinuousStateDerivatives", ME_MODES | Terminated, NULL},
+    [F_GetEventIndicators] = {"fmi3GetEventIndicators", InitializationMode | ME_MODES | Terminated, NULL},
+    [F_GetContinuousStates] = {"fmi3GetContinuousStates", ME_MODES | Terminated, NULL},
+    [F_GetNominalsOfContinuousStates] = {"fmi3GetNominalsOfContinuousStates", ALL_STATES, NULL},
+    [F_GetNumberOfEventIndicators] = {"fmi3GetNumberOfEventIndicators", ALL_STATES, NULL},
+    [F_GetNumberOfContinuousStates] = {"fmi3GetNumberOfContinuousStates", ALL_STATES, NULL},
     [F_EnterStepMode] = {"fmi3EnterStepMode", 0, NO_EVENT_MODE},
     [F_GetOutputDerivatives] = {"fmi3GetOutputDerivatives", 0, "not provided (maxOutputDerivativeOrder is 0)"},
     [F_DoStep] = {"fmi3DoStep", StepMode, NULL},
@@ -224,6 +230,8 @@ static const char *state_name(int state) {
     case InitializationMode: return "InitializationMode";
     case StepMode: return "StepMode";
     case Terminated: return "Terminated";
+    case EventMode: return "EventMode";
+    case ContinuousTimeMode: return "ContinuousTimeMode";
     default: return "?";
     }
 }
@@ -323,6 +331,8 @@ static const FrontVersion FMI3 = {.magic = INSTANCE_MAGIC,
                                   .all_states = ALL_STATES,
                                   .error_state = Terminated,
                                   .every_error = 1,
+                                  .me_states = ME_MODES,
+                                  .cs_states = StepMode,
                                   .error_name = "fmi3Error",
                                   .serialized_size_name = "fmi3SerializedFMUStateSize",
                                   .state_name = state_name,
@@ -368,8 +378,23 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3String resourcePath, fmi3Boolean visible, fmi3Boolean loggingOn,
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage) {
-    (void)instanceName, (void)instantiationToken, (void)resourcePath, (void)visible, (void)loggingOn;
-    return not_instantiated("fmi3InstantiateModelExchange", NO_MODEL_EXCHANGE, instanceEnvironment, logMessage);
+    static const char *name = "fmi3InstantiateModelExchange";
+    Instance *inst = (Instance *)front_new_instance(&FMI3, sizeof *inst, Instantiated, instanceName, instantiationToken,
+                                                    loggingOn, (FrontLogger)logMessage, instanceEnvironment);
+    if (!inst) return NULL;
+    FrontInstance *front = &inst->front;
+    front->model_exchange = 1;
+    char resources[4096];
+    if (front_resources_from_path(resourcePath, resources, sizeof resources) < 0) {
+        front_fail(front, name,
+                   "resourcePath: neither it (the resources folder of the extracted FMU) nor the folder next to "
+                   "this binary holds the FMU's resources (resources/flexfmu_build.json)");
+    } else if (front_instantiate_slave(front, name, resources, visible) == 0) {
+        if (front->bridge->model_exchange(front->slave, name) == BRIDGE_OK) return inst;
+        front->bridge->free_instance(front->slave);
+    }
+    front_free_instance_memory(front);
+    return NULL;
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,
@@ -452,7 +477,7 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
     Instance *inst = enter(instance, F_ExitInitializationMode);
     if (!inst) return fmi3Error;
     int status = inst->front.bridge->simple_call(inst->front.slave, CALL_EXIT_INITIALIZATION_MODE);
-    if (status <= BRIDGE_WARNING) inst->front.state = StepMode;
+    if (status <= BRIDGE_WARNING) inst->front.state = inst->front.model_exchange ? EventMode : StepMode;
     return leave(inst, status);
 }
 
@@ -475,7 +500,12 @@ fmi3Status fmi3Reset(fmi3Instance instance) {
     return leave(inst, status);
 }
 
-fmi3Status fmi3EnterEventMode(fmi3Instance instance) { return not_provided(instance, F_EnterEventMode); }
+fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_EnterEventMode);
+    if (!inst) return fmi3Error;
+    inst->front.state = EventMode;
+    return leave(inst, fmi3OK);
+}
 
 /* ---- FMI 3.0: getting and setting variable values ---------------------------------------------- */
 
@@ -807,9 +837,22 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
                                         const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
                                         size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
-    (void)unknowns, (void)nUnknowns, (void)knowns, (void)nKnowns, (void)seed, (void)nSeed, (void)sensitivity;
-    (void)nSensitivity;
-    return not_provided(instance, F_GetDirectionalDerivative);
+    Instance *inst = enter(instance, F_GetDirectionalDerivative);
+    if (!inst) return fmi3Error;
+    if (nSeed != nKnowns || nSensitivity != nUnknowns) {
+        char why[240];
+        snprintf(why, sizeof why,
+                 "nSeed, nSensitivity: got %zu and %zu for %zu knowns and %zu unknowns (the variables are scalars: "
+                 "one value each)",
+                 nSeed, nSensitivity, nKnowns, nUnknowns);
+        return leave(inst, fail(inst, F_GetDirectionalDerivative, why));
+    }
+    if (nUnknowns == 0) return leave(inst, fmi3OK);
+    if (!unknowns || !sensitivity || (nKnowns > 0 && (!knowns || !seed)))
+        return leave(inst, fail(inst, F_GetDirectionalDerivative, "a value-reference or value array is NULL"));
+    FrontInstance *front = &inst->front;
+    return leave(inst, front->bridge->directional(front->slave, CALLS[F_GetDirectionalDerivative].name, unknowns,
+                                                  nUnknowns, knowns, nKnowns, seed, sensitivity));
 }
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
                                     const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
@@ -868,59 +911,112 @@ fmi3Status fmi3SetShiftFraction(fmi3Instance instance, const fmi3ValueReference 
     return not_provided(instance, F_SetShiftFraction);
 }
 
+/* ---- FMI 3.0: model exchange (no events: the models are linear ODEs with inputs) ------------------ */
+
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) {
-    return not_provided(instance, F_EvaluateDiscreteStates);
+    Instance *inst = enter(instance, F_EvaluateDiscreteStates);
+    return inst ? leave(inst, fmi3OK) : fmi3Error; /* no discrete states */
 }
+
 fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
                                     fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
                                     fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
                                     fmi3Float64 *nextEventTime) {
-    (void)discreteStatesNeedUpdate, (void)terminateSimulation, (void)nominalsOfContinuousStatesChanged;
-    (void)valuesOfContinuousStatesChanged, (void)nextEventTimeDefined, (void)nextEventTime;
-    return not_provided(instance, F_UpdateDiscreteStates);
+    Instance *inst = enter(instance, F_UpdateDiscreteStates);
+    if (!inst) return fmi3Error;
+    /* each out-argument may be NULL (FMI 3.0: the host is not interested) */
+    if (discreteStatesNeedUpdate) *discreteStatesNeedUpdate = fmi3False;
+    if (terminateSimulation) *terminateSimulation = fmi3False;
+    if (nominalsOfContinuousStatesChanged) *nominalsOfContinuousStatesChanged = fmi3False;
+    if (valuesOfContinuousStatesChanged) *valuesOfContinuousStatesChanged = fmi3False;
+    if (nextEventTimeDefined) *nextEventTimeDefined = fmi3False; /* no time events */
+    if (nextEventTime) *nextEventTime = 0.0;
+    return leave(inst, fmi3OK);
 }
 
 fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
-    return not_provided(instance, F_EnterContinuousTimeMode);
+    Instance *inst = enter(instance, F_EnterContinuousTimeMode);
+    if (!inst) return fmi3Error;
+    inst->front.state = ContinuousTimeMode;
+    return leave(inst, fmi3OK);
 }
+
 fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
                                        fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
-    (void)noSetFMUStatePriorToCurrentPoint, (void)enterEventMode, (void)terminateSimulation;
-    return not_provided(instance, F_CompletedIntegratorStep);
+    (void)noSetFMUStatePriorToCurrentPoint;
+    Instance *inst = enter(instance, F_CompletedIntegratorStep);
+    if (!inst) return fmi3Error;
+    if (!enterEventMode || !terminateSimulation)
+        return leave(inst, fail(inst, F_CompletedIntegratorStep, "enterEventMode or terminateSimulation is NULL"));
+    *enterEventMode = fmi3False; /* no step events */
+    *terminateSimulation = fmi3False;
+    return leave(inst, fmi3OK);
 }
+
 fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time) {
-    (void)time;
-    return not_provided(instance, F_SetTime);
+    Instance *inst = enter(instance, F_SetTime);
+    if (!inst) return fmi3Error;
+    return leave(inst, inst->front.bridge->set_time(inst->front.slave, CALLS[F_SetTime].name, time));
 }
+
+/* get (set 0) or set (set 1) the continuous states */
+static fmi3Status states_call(fmi3Instance instance, Function f, int set, fmi3Float64 *x, size_t n) {
+    Instance *inst = enter(instance, f);
+    if (!inst) return fmi3Error;
+    if (!x && n > 0) return leave(inst, fail(inst, f, "the array is NULL"));
+    return leave(inst, inst->front.bridge->continuous_states(inst->front.slave, CALLS[f].name, set, x, n));
+}
+
 fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
                                    size_t nContinuousStates) {
-    (void)continuousStates, (void)nContinuousStates;
-    return not_provided(instance, F_SetContinuousStates);
+    return states_call(instance, F_SetContinuousStates, 1, (fmi3Float64 *)continuousStates, nContinuousStates);
 }
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates) {
+    return states_call(instance, F_GetContinuousStates, 0, continuousStates, nContinuousStates);
+}
+
 fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
                                              size_t nContinuousStates) {
-    (void)derivatives, (void)nContinuousStates;
-    return not_provided(instance, F_GetContinuousStateDerivatives);
+    Instance *inst = enter(instance, F_GetContinuousStateDerivatives);
+    if (!inst) return fmi3Error;
+    if (!derivatives && nContinuousStates > 0)
+        return leave(inst, fail(inst, F_GetContinuousStateDerivatives, "derivatives is NULL"));
+    return leave(inst, inst->front.bridge->derivatives(inst->front.slave, CALLS[F_GetContinuousStateDerivatives].name,
+                                                       derivatives, nContinuousStates));
 }
+
 fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators) {
-    (void)eventIndicators, (void)nEventIndicators;
-    return not_provided(instance, F_GetEventIndicators);
+    (void)eventIndicators;
+    Instance *inst = enter(instance, F_GetEventIndicators);
+    if (!inst) return fmi3Error;
+    if (nEventIndicators != 0)
+        return leave(inst, fail(inst, F_GetEventIndicators, "nEventIndicators: this model has 0 event indicators"));
+    return leave(inst, fmi3OK);
 }
-fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates) {
-    (void)continuousStates, (void)nContinuousStates;
-    return not_provided(instance, F_GetContinuousStates);
-}
+
 fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[], size_t nContinuousStates) {
-    (void)nominals, (void)nContinuousStates;
-    return not_provided(instance, F_GetNominalsOfContinuousStates);
+    Instance *inst = enter(instance, F_GetNominalsOfContinuousStates);
+    if (!inst) return fmi3Error;
+    if (!nominals && nContinuousStates > 0)
+        return leave(inst, fail(inst, F_GetNominalsOfContinuousStates, "nominals is NULL"));
+    return leave(inst, inst->front.bridge->nominals(inst->front.slave, nominals, nContinuousStates));
 }
+
 fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators) {
-    (void)nEventIndicators;
-    return not_provided(instance, F_GetNumberOfEventIndicators);
+    Instance *inst = enter(instance, F_GetNumberOfEventIndicators);
+    if (!inst) return fmi3Error;
+    if (!nEventIndicators) return leave(inst, fail(inst, F_GetNumberOfEventIndicators, "nEventIndicators is NULL"));
+    *nEventIndicators = 0;
+    return leave(inst, fmi3OK);
 }
+
 fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates) {
-    (void)nContinuousStates;
-    return not_provided(instance, F_GetNumberOfContinuousStates);
+    Instance *inst = enter(instance, F_GetNumberOfContinuousStates);
+    if (!inst) return fmi3Error;
+    if (!nContinuousStates) return leave(inst, fail(inst, F_GetNumberOfContinuousStates, "nContinuousStates is NULL"));
+    *nContinuousStates = inst->front.bridge->n_states(inst->front.slave);
+    return leave(inst, fmi3OK);
 }
 
 fmi3Status fmi3EnterStepMode(fmi3Instance instance) { return not_provided(instance, F_EnterStepMode); }

@@ -22,7 +22,15 @@
  *    model holds and chose) go out with category logAll;
  *  - FMU states hold everything: the variables' values, the held inputs, the outputs, the time, the start time,
  *    the clock, the kind's state vector and the kind's own saved state (the Python kind's simulator); serialised as
- *    the layout below (after the front's header).
+ *    the layout below (after the front's header);
+ *  - model exchange (a kind with `derivatives`): the host sets the time, the continuous states (the kind's x) and
+ *    the inputs (which then hold at once: the outputs and derivatives are those of the inputs as set), and reads
+ *    the derivatives; the states have the value references after the model file's variables, their derivatives the
+ *    next ones;
+ *  - directional derivatives (a kind with `directional`): of outputs and state derivatives with respect to inputs
+ *    and states, exact, at the current state and the inputs as last set (in co-simulation too, where the outputs
+ *    read are still those of the held inputs: the derivatives are those of the output function a master solving
+ *    the coupling needs).
  * No globals are written: everything is per instance, so instances in any number and on any threads (one call at a
  * time per instance, which the front ensures) are independent.
  */
@@ -397,6 +405,7 @@ typedef struct {
     unsigned char *deferred; /* per output: computed only when read (outputs.deferred) */
     double divergence_limit;
     char *const *messages;
+    const double *nominals; /* per continuous state: its typical size (the model file's state.nominal), or NULL: 1 */
 } Model;
 
 /* What an FMU state holds; also the instance's own current values.  valid[i]:
@@ -424,6 +433,8 @@ typedef struct {
     const char **param_texts; /* and the String ones' values */
     double *scratch_x, *scratch_y;
     unsigned char *scratch_which; /* per output: asked of the kind, then written by it */
+    int me;                      /* model exchange: the host integrates x; inputs hold as they are set */
+    double *scratch_dx, *scratch_du, *scratch_dy, *scratch_ddx, *scratch_in;
     double *state_held; /* the inputs the current state's step held (at initialisation: those held then; after a
                              restore: the state's); a refused step leaves it (NativeKind.step_held) */
     BridgeLog *log;
@@ -578,6 +589,15 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
     m->layout.param_names = m->param_names;
     if (!(m->model = m->kind->load(f, &m->layout, why, why_size))) return -1;
     m->nx = m->kind->state_size(m->model);
+    if (native_entry(f, "state.nominal")) { /* optional: the continuous states' typical sizes (model exchange) */
+        long shape[1] = {(long)m->nx};
+        if (native_f64(f, "state.nominal", 1, shape, &m->nominals, NULL, why, why_size) < 0) return -1;
+        for (size_t i = 0; i < m->nx; i++)
+            if (!(isfinite(m->nominals[i]) && m->nominals[i] > 0)) {
+                snprintf(why, why_size, "model file: state.nominal[%zu] is not a finite number > 0", i);
+                return -1;
+            }
+    }
     return 0;
 memory:
     snprintf(why, why_size, "out of memory");
@@ -841,6 +861,11 @@ static void free_slave(Slave *s) {
     free(s->scratch_y);
     free(s->scratch_which);
     free(s->state_held);
+    free(s->scratch_dx);
+    free(s->scratch_du);
+    free(s->scratch_dy);
+    free(s->scratch_ddx);
+    free(s->scratch_in);
     free_model(&s->m);
     free(s);
 }
@@ -868,7 +893,12 @@ static void *instantiate(const char *resources_dir, const char *instance_name, c
         || !(s->scratch_x = calloc(s->m.nx + 1, sizeof *s->scratch_x))
         || !(s->scratch_y = calloc(s->m.layout.n_outputs + 1, sizeof *s->scratch_y))
         || !(s->scratch_which = calloc(s->m.layout.n_outputs + 1, 1))
-        || !(s->state_held = calloc(s->m.layout.n_inputs + 1, sizeof *s->state_held))) {
+        || !(s->state_held = calloc(s->m.layout.n_inputs + 1, sizeof *s->state_held))
+        || !(s->scratch_dx = calloc(s->m.nx + 1, sizeof(double)))
+        || !(s->scratch_ddx = calloc(s->m.nx + 1, sizeof(double)))
+        || !(s->scratch_du = calloc(s->m.layout.n_inputs + 1, sizeof(double)))
+        || !(s->scratch_in = calloc(s->m.layout.n_inputs + 1, sizeof(double)))
+        || !(s->scratch_dy = calloc(s->m.layout.n_outputs + 1, sizeof(double)))) {
         log(context, BRIDGE_ERROR, "logStatusError", "fmi2Instantiate: out of memory");
         free_slave(s);
         return NULL;
@@ -998,13 +1028,51 @@ static int do_step(void *slave, double current_time, double h) {
 
 /* ---- values ------------------------------------------------------------------------------------------ */
 
+/* ---- continuous states (model exchange) ----------------------------------------------------------------- */
+
+/* The continuous states of a kind that is an ODE (NativeKind.derivatives), else 0. */
+static size_t states_of(const Slave *s) { return s->m.kind->derivatives ? s->m.nx : 0; }
+
+/* 1: vr is a continuous state's, 2: a state derivative's, 0: neither (value references after the variables'). */
+static int state_reference(const Slave *s, unsigned int vr) {
+    size_t n = states_of(s);
+    if (vr < s->m.n_vars || vr >= s->m.n_vars + 2 * n) return 0;
+    return vr < s->m.n_vars + n ? 1 : 2;
+}
+
+/* The derivatives of the current state with the inputs as set (model exchange) or held (co-simulation) into dx. */
+static int compute_derivatives(Slave *s, const char *function, double *dx) {
+    NativeResult r = new_result(s);
+    int status = s->m.kind->derivatives(s->sim, s->now.x, s->now.held, dx, &r);
+    if (status == NATIVE_NOT_FINITE) {
+        char t[64];
+        time_text(s->now.start_time + s->now.time, t, sizeof t);
+        const char *name, *allowed;
+        double value;
+        if (culprit_of(s, s->m.kind->culprit(s->sim, 1, s->now.x, s->now.held, 1e300), &name, &value, &allowed))
+            return refuse(s, BRIDGE_ERROR, "%s: %s: %.6g makes the derivatives overflow (not finite) at t = %s s; "
+                          "allowed: %s", function, name, value, t, allowed);
+        return refuse(s, BRIDGE_ERROR, "%s: the derivatives are not finite at t = %s s (the states or inputs drive "
+                      "the model beyond its range)", function, t);
+    }
+    if (status != BRIDGE_OK) return refuse(s, status, "%s: %s", function, r.message);
+    return BRIDGE_OK;
+}
+
 /* The refusal for the first value reference of `vr` that this call cannot take. */
 static int refuse_reference(Slave *s, const char *function, BridgeValueType type, const unsigned int *vr, size_t nvr,
                             int setting) {
     for (size_t i = 0; i < nvr; i++) {
+        int extra = state_reference(s, vr[i]);
+        if (extra && (type != VALUE_REAL || setting))
+            return refuse(s, BRIDGE_ERROR, "%s: value reference %u is %s %zu, a Real %s", function, vr[i],
+                          extra == 1 ? "continuous state" : "the derivative of continuous state",
+                          (size_t)vr[i] - s->m.n_vars - (extra == 1 ? 0 : s->m.nx),
+                          extra == 1 ? "set with fmi2SetContinuousStates" : "computed by the model");
+        if (extra) continue;
         if (vr[i] >= s->m.n_vars)
             return refuse(s, BRIDGE_ERROR, "%s: unknown value reference %u (this FMU has 0 .. %zu)", function, vr[i],
-                          s->m.n_vars - 1);
+                          s->m.n_vars + 2 * states_of(s) - 1);
         const Variable *v = &s->m.vars[vr[i]];
         if (v->type != (int)type)
             return refuse(s, BRIDGE_ERROR, "%s: value reference %u is '%s', a %s variable; use fmi2%s%s", function,
@@ -1027,6 +1095,7 @@ static int get_values(void *slave, BridgeValueType type, const unsigned int *vr,
     if (s->sim) { /* the outputs read: each computed once per step, and only if read */
         int any = 0;
         for (size_t i = 0; i < nvr; i++) {
+            if (vr[i] >= s->m.n_vars) continue; /* a state or derivative */
             const Variable *v = &s->m.vars[vr[i]];
             if (v->causality == OUTPUT && !s->now.valid[v->index]) {
                 if (!any) memset(s->scratch_which, 0, s->m.layout.n_outputs);
@@ -1038,7 +1107,26 @@ static int get_values(void *slave, BridgeValueType type, const unsigned int *vr,
             if (status != BRIDGE_OK) return status;
         }
     }
+    int derivatives_read = 0;
     for (size_t i = 0; i < nvr; i++) {
+        int extra = state_reference(s, vr[i]);
+        if (extra == 1) {
+            ((double *)values)[i] = s->now.x[vr[i] - s->m.n_vars];
+            continue;
+        }
+        if (extra == 2) {
+            if (!s->sim) {
+                ((double *)values)[i] = 0.0; /* before initialisation: no model yet (as the outputs' start) */
+                continue;
+            }
+            if (!derivatives_read) {
+                int status = compute_derivatives(s, function, s->scratch_dx);
+                if (status != BRIDGE_OK) return status;
+                derivatives_read = 1;
+            }
+            ((double *)values)[i] = s->scratch_dx[vr[i] - s->m.n_vars - s->m.nx];
+            continue;
+        }
         const Variable *v = &s->m.vars[vr[i]];
         double value = v->causality == OUTPUT ? s->now.outputs[v->index] : s->now.values[vr[i]];
         switch (type) {
@@ -1169,6 +1257,10 @@ static int set_values(void *slave, BridgeValueType type, const unsigned int *vr,
                        : type == VALUE_INTEGER ? (double)((const int *)values)[i]
                                                : (double)(((const int *)values)[i] != 0);
         if (v->causality != PARAMETER || v->index >= 0) s->now.values[vr[i]] = value;
+        if (s->me && s->sim && v->causality == INPUT && s->now.held[v->index] != value) {
+            s->now.held[v->index] = value; /* model exchange: the inputs are functions of time, not held */
+            memset(s->now.valid, 0, s->m.layout.n_outputs);
+        }
     }
     return BRIDGE_OK;
 }
@@ -1414,6 +1506,137 @@ static int last_successful_time(void *slave, double *time) {
     return BRIDGE_OK;
 }
 
+/* ---- model exchange and directional derivatives (BridgeApi version 2) ------------------------------------ */
+
+static size_t n_states(void *slave) { return states_of(slave); }
+
+static int model_exchange(void *slave, const char *function) {
+    Slave *s = slave;
+    if (!states_of(s))
+        return refuse(s, BRIDGE_ERROR,
+                      "%s: this model (kind '%s') is co-simulation only: it is advanced by its own stepping method "
+                      "(fmuType/interface: co-simulation)",
+                      function, s->m.kind->name);
+    s->me = 1;
+    return BRIDGE_OK;
+}
+
+/* The instance is set up (fmi2ExitInitializationMode made its model), else a refusal naming `function`. */
+static int need_model(Slave *s, const char *function) {
+    if (s->sim) return BRIDGE_OK;
+    return refuse(s, BRIDGE_ERROR,
+                  "%s: available from fmi2ExitInitializationMode on (the model is made from the parameters there)",
+                  function);
+}
+
+static int nominals(void *slave, double *x, size_t nx) {
+    Slave *s = slave;
+    size_t n = states_of(s);
+    if (nx != n)
+        return refuse(s, BRIDGE_ERROR, "fmi2GetNominalsOfContinuousStates: nx: got %zu (allowed: this model's %zu "
+                      "continuous states)", nx, n);
+    for (size_t i = 0; i < n; i++) x[i] = s->m.nominals ? s->m.nominals[i] : 1.0;
+    return BRIDGE_OK;
+}
+
+static int set_time(void *slave, const char *function, double time) {
+    Slave *s = slave;
+    if (!isfinite(time)) {
+        char shown[64];
+        native_repr(time, shown, sizeof shown);
+        return refuse(s, BRIDGE_ERROR, "%s: time: got %s (allowed: a finite time in s)", function, shown);
+    }
+    s->now.time = time - s->now.start_time;
+    s->now.clock = time;
+    return BRIDGE_OK;
+}
+
+static int continuous_states(void *slave, const char *function, int set, double *x, size_t nx) {
+    Slave *s = slave;
+    size_t n = states_of(s);
+    if (nx != n)
+        return refuse(s, BRIDGE_ERROR, "%s: got %zu states (allowed: this model's %zu)", function, nx, n);
+    if (!set) {
+        memcpy(x, s->now.x, n * sizeof *x);
+        return BRIDGE_OK;
+    }
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(x[i])) {
+            char shown[64];
+            native_repr(x[i], shown, sizeof shown);
+            return refuse(s, BRIDGE_ERROR, "%s: continuous state %zu: got %s (allowed: a finite number)", function, i,
+                          shown);
+        }
+    if (memcmp(s->now.x, x, n * sizeof *x) != 0) {
+        memcpy(s->now.x, x, n * sizeof *x);
+        memset(s->now.valid, 0, s->m.layout.n_outputs);
+    }
+    return BRIDGE_OK;
+}
+
+static int derivatives(void *slave, const char *function, double *dx, size_t nx) {
+    Slave *s = slave;
+    size_t n = states_of(s);
+    if (nx != n)
+        return refuse(s, BRIDGE_ERROR, "%s: got %zu derivatives (allowed: this model's %zu)", function, nx, n);
+    if (need_model(s, function) != BRIDGE_OK) return BRIDGE_ERROR;
+    return compute_derivatives(s, function, dx);
+}
+
+static int directional(void *slave, const char *function, const unsigned int *unknown, size_t n_unknown,
+                       const unsigned int *known, size_t n_known, const double *seed, double *sensitivity) {
+    Slave *s = slave;
+    const Model *m = &s->m;
+    if (!m->kind->directional)
+        return refuse(s, BRIDGE_ERROR, "%s: this model (kind '%s') provides no directional derivatives", function,
+                      m->kind->name);
+    if (need_model(s, function) != BRIDGE_OK) return BRIDGE_ERROR;
+    double *du = s->scratch_du, *dx = s->scratch_dx;
+    memset(du, 0, m->layout.n_inputs * sizeof *du);
+    memset(dx, 0, m->nx * sizeof *dx);
+    for (size_t j = 0; j < n_known; j++) {
+        unsigned int vr = known[j];
+        if (!isfinite(seed[j]))
+            return refuse(s, BRIDGE_ERROR, "%s: the seed of value reference %u is not finite", function, vr);
+        if (state_reference(s, vr) == 1) {
+            dx[vr - m->n_vars] += seed[j];
+        } else if (vr < m->n_vars && m->vars[vr].causality == INPUT) {
+            du[m->vars[vr].index] += seed[j];
+        } else {
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: known value reference %u%s%s%s is not an input or a continuous state (allowed: "
+                          "the inputs%s)",
+                          function, vr, vr < m->n_vars ? " ('" : "", vr < m->n_vars ? m->vars[vr].name : "",
+                          vr < m->n_vars ? "')" : "", states_of(s) ? " and the continuous states" : "");
+        }
+    }
+    for (size_t i = 0; i < n_unknown; i++) {
+        unsigned int vr = unknown[i];
+        if (state_reference(s, vr) != 2 && !(vr < m->n_vars && m->vars[vr].causality == OUTPUT))
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: unknown value reference %u%s%s%s is not an output or a state derivative (allowed: "
+                          "the outputs%s)",
+                          function, vr, vr < m->n_vars ? " ('" : "", vr < m->n_vars ? m->vars[vr].name : "",
+                          vr < m->n_vars ? "')" : "", states_of(s) ? " and the state derivatives" : "");
+    }
+    /* at the inputs as last set: in co-simulation the held ones until the next step, but a master asks for the
+       derivatives of the output function at the inputs it has just set */
+    double *in = s->scratch_in;
+    for (size_t j = 0; j < m->layout.n_inputs; j++) in[j] = s->now.values[m->input_vr[j]];
+    NativeResult r = new_result(s);
+    int status = m->kind->directional(s->sim, s->now.x, in, dx, du, s->scratch_dy, states_of(s) ? s->scratch_ddx : NULL,
+                                      &r);
+    if (status == NATIVE_NOT_FINITE)
+        return refuse(s, BRIDGE_ERROR, "%s: the derivatives are not finite (the state or inputs are beyond the "
+                      "model's range)", function);
+    if (status != BRIDGE_OK) return refuse(s, status, "%s: %s", function, r.message);
+    for (size_t i = 0; i < n_unknown; i++) {
+        unsigned int vr = unknown[i];
+        sensitivity[i] = vr >= m->n_vars ? s->scratch_ddx[vr - m->n_vars - m->nx] : s->scratch_dy[m->vars[vr].index];
+    }
+    return BRIDGE_OK;
+}
+
 static const BridgeApi API = {
     FLEXFMU_BRIDGE_VERSION,
     start,
@@ -1430,6 +1653,13 @@ static const BridgeApi API = {
     serialize_state,
     deserialize_state,
     last_successful_time,
+    n_states,
+    model_exchange,
+    set_time,
+    continuous_states,
+    derivatives,
+    directional,
+    nominals,
 };
 
 /* The front's load_bridge (compiled with FLEXFMU_NATIVE) takes the API from here: nothing is loaded. */

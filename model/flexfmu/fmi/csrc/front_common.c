@@ -469,6 +469,17 @@ int front_set_state(FrontInstance *inst, const char *function, void *state) {
         snprintf(text, sizeof text, "FMUstate is not a state of this FMU: %s", why);
         return front_fail(inst, function, text);
     }
+    const FrontVersion *v = inst->version;
+    int taken_me = (box->fmi_state & v->me_states) != 0, taken_cs = (box->fmi_state & v->cs_states) != 0;
+    if ((taken_me && !inst->model_exchange) || (taken_cs && inst->model_exchange)) {
+        char text[256];
+        snprintf(text, sizeof text,
+                 "FMUstate was taken by a %s instance (in %s); this instance is for %s: set states of the same "
+                 "interface type",
+                 taken_me ? "model-exchange" : "co-simulation", v->state_name(box->fmi_state),
+                 inst->model_exchange ? "model exchange" : "co-simulation");
+        return front_fail(inst, function, text);
+    }
     int status = inst->bridge->set_state(inst->slave, box->python);
     if (status <= BRIDGE_WARNING)
         inst->state = box->fmi_state;
@@ -478,8 +489,23 @@ int front_set_state(FrontInstance *inst, const char *function, void *state) {
 }
 
 int front_free_state(FrontInstance *inst, const char *function, void **state) {
-    if (!state || !*state) return BRIDGE_OK;
+    if (!state) return BRIDGE_OK;
     const char *why;
+    /* A host that passes the state where its address belongs (fmusim's --initial-fmu-state-file does) would have
+       the state's first bytes taken for a pointer: the address passed is read as a box first (reading its first
+       4 bytes is safe either way: a pointer variable is 8) and, if it is one of this instance's, freed as such. */
+    if (*(const uint32_t *)(const void *)state == STATE_MAGIC && box_of_instance(inst, (void *)state, &why)) {
+        StateBox *given = (StateBox *)(void *)state;
+        char text[200];
+        snprintf(text, sizeof text, "%s: got the FMU state itself, not its address (FMUstate is a pointer to the "
+                 "state); it is freed", function);
+        front_emit(inst, BRIDGE_WARNING, "logStatusWarning", text);
+        inst->bridge->free_state(given->python);
+        given->magic = 0;
+        free(given);
+        return BRIDGE_OK; /* freed as asked: fmusim stops on a Warning here, and the message says what happened */
+    }
+    if (!*state) return BRIDGE_OK;
     StateBox *box = box_of_instance(inst, *state, &why);
     if (!box) return front_fail(inst, function, "*FMUstate is not a state of this FMU");
     inst->bridge->free_state(box->python);

@@ -46,6 +46,8 @@ typedef struct {
     int all_states;  /* every state of the front's state machine (bits) */
     int error_state; /* the state a call that moves the model enters when it returns Error */
     int every_error; /* nonzero: every call that returns Error enters error_state (FMI 3.0's Terminated) */
+    int me_states;   /* the states only a model-exchange instance enters: its FMU states are not set in another */
+    int cs_states;   /* the states only a co-simulation instance enters */
     const char *error_name;           /* the Error status's name, in messages */
     const char *serialized_size_name; /* the function that tells a serialised state's size, named in a refusal */
     const char *(*state_name)(int state);
@@ -60,6 +62,7 @@ typedef void (*FrontLogger)(void);
 struct FrontInstance {
     uint32_t magic;
     int state;
+    int model_exchange; /* instantiated for model exchange (the host integrates the continuous states) */
     const FrontVersion *version;
     void *slave; /* the bridge's */
     const BridgeApi *bridge;

@@ -30,6 +30,10 @@
  *               (optional) a state the kind keeps beside x, as bytes of its own format and size (the Python kind:
  *               the simulator's state): an FMU state holds them (and serialises them after the bridge's layout);
  *               check_saved refuses, before any instance sees them, bytes that are not such a state
+ *   derivatives (optional) x' = f(x, u) with the inputs as set now: a kind that is an ODE in fixed coordinates
+ *               offers model exchange (its continuous states: x; their derivatives: f)
+ *   directional (optional) the exact derivatives of the outputs and of f along a direction (dx, du): FMI's
+ *               directional derivatives (outputs and derivatives with respect to inputs and states)
  *
  * The LTI kind (clamped bodies: FFRBeam, exported clamped bodies) is native_lti.c; the reframe kind (free bodies:
  * ReframeBody, exported free bodies) native_reframe.c; both are listed in native_kinds.c, the kinds of a native
@@ -134,6 +138,13 @@ typedef struct {
     int (*save)(void *sim, unsigned char **bytes, size_t *size, NativeResult *result);
     int (*restore)(void *sim, const unsigned char *bytes, size_t size, NativeResult *result);
     int (*check_saved)(const void *model, const unsigned char *bytes, size_t size, NativeResult *result);
+    /* optional (model exchange; NULL: co-simulation only): the state's time derivative dx (nx) = f(x, u) with the
+       inputs u as they are now (the kind is an ODE in fixed coordinates: x' = f(x, u)) */
+    int (*derivatives)(void *sim, const double *x, const double *u, double *dx, NativeResult *result);
+    /* optional (directional derivatives; NULL: none): the exact derivatives of the outputs and of f along the
+       direction (dx, du) at (x, u): dy (n_outputs, the outputs' order) and ddx (nx) */
+    int (*directional)(void *sim, const double *x, const double *u, const double *dx, const double *du, double *dy,
+                       double *ddx, NativeResult *result);
 } NativeKind;
 
 /* The kinds of this library (native_kinds.c: a native FMU's; native_python.c: the Python runtime's). */

@@ -48,6 +48,9 @@ typedef struct {
     double internal_step;
     long cap, last_split;
     double last_h; /* internal step of the last step (for the culprit) */
+    /* model exchange and directional derivatives: monomials of p and their derivative along dp, the direction's
+       u and p, z = [x; u; mono] and its derivative (the quadratic output terms) */
+    double *mono, *dmono, *du, *dp, *z, *dz, *dy;
 } LtiSim;
 
 static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
@@ -180,6 +183,13 @@ static void free_sim(void *sim) {
     free(s->y);
     free(s->params);
     free(s->rows);
+    free(s->mono);
+    free(s->dmono);
+    free(s->du);
+    free(s->dp);
+    free(s->z);
+    free(s->dz);
+    free(s->dy);
     free(s);
 }
 
@@ -192,7 +202,13 @@ static void *init(const void *model, const double *params, const char *const *te
     if (!s || !(s->work = malloc(sizeof(double) * (n + 1))) || !(s->p = calloc((size_t)k->np + 1, sizeof(double)))
         || !(s->u = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->y = calloc((size_t)k->ny + 1, sizeof(double)))
         || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))
-        || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int)))) {
+        || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int)))
+        || !(s->mono = calloc((size_t)k->nmono + 1, sizeof(double)))
+        || !(s->dmono = calloc((size_t)k->nmono + 1, sizeof(double)))
+        || !(s->du = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->dp = calloc((size_t)k->np + 1, sizeof(double)))
+        || !(s->z = calloc((size_t)(k->nx + k->nu + k->nmono) + 1, sizeof(double)))
+        || !(s->dz = calloc((size_t)(k->nx + k->nu + k->nmono) + 1, sizeof(double)))
+        || !(s->dy = calloc((size_t)k->ny + 1, sizeof(double)))) {
         free_sim(s);
         native_refuse(r, BRIDGE_ERROR, "out of memory");
         return NULL;
@@ -350,6 +366,89 @@ static int culprit(void *sim, int what, const double *x, const double *in, doubl
     return best; /* outputs: the largest contributor (one that overflows alone is the largest) */
 }
 
+/* ---- model exchange and directional derivatives ------------------------------------------------------- */
+
+/* out (rows) += sum_k w[k] (M[k] x + N[k] u + c[k]) (M: (nmono, rows, nx), N: (nmono, rows, nu), c: (nmono, rows) or
+   NULL); the k with w[k] = 0 are skipped (the base motion is often zero: only the constant term then). */
+static void add_affine(const ffx_lti_model *k, int rows, const double *M, const double *N, const double *c,
+                       const double *w, const double *x, const double *u, double *out) {
+    for (int q = 0; q < k->nmono; q++) {
+        if (w[q] == 0.0) continue;
+        const double *Mq = M + (size_t)q * (size_t)rows * (size_t)k->nx;
+        const double *Nq = N + (size_t)q * (size_t)rows * (size_t)k->nu;
+        for (int i = 0; i < rows; i++) {
+            double sum = c ? c[(size_t)q * (size_t)rows + (size_t)i] : 0.0;
+            for (int j = 0; j < k->nx; j++) sum += Mq[(size_t)i * (size_t)k->nx + (size_t)j] * x[j];
+            for (int j = 0; j < k->nu; j++) sum += Nq[(size_t)i * (size_t)k->nu + (size_t)j] * u[j];
+            out[i] += w[q] * sum;
+        }
+    }
+}
+
+/* x' = A(p) x + B(p) u + b(p) (lti_kernels.h): the continuous-time system whose exact zero-order hold is the step
+   (the same coefficients), so model exchange and co-simulation integrate one ODE. */
+static int derivatives(void *sim, const double *x, const double *in, double *dx, NativeResult *r) {
+    (void)r;
+    LtiSim *s = sim;
+    const ffx_lti_model *k = &s->m->kernel;
+    assemble(s, in);
+    ffx_lti_monomials(k->np, s->p, s->mono);
+    memset(dx, 0, sizeof(double) * (size_t)k->nx);
+    add_affine(k, k->nx, k->A, k->B, k->b, s->mono, x, s->u, dx);
+    for (int i = 0; i < k->nx; i++)
+        if (!isfinite(dx[i])) return NATIVE_NOT_FINITE;
+    return BRIDGE_OK;
+}
+
+/* The exact derivative along (dx, du) of f and of the outputs: both are sums over the monomials of p of terms
+   affine in (x, u), plus the outputs' products z_i z_j of z = [x; u; mono(p)], so by the product rule
+       df = A(p) dx + B(p) du + sum_k dmono_k (A_k x + B_k u + b_k)
+       dy = Cx(p) dx + Cu(p) du + sum_k dmono_k (Cx_k x + Cu_k u + y0_k) + sum v (dz_i z_j + z_i dz_j)
+   with dmono the monomials' derivative along dp (0 for the constant, dp_i, p_i dp_j + dp_i p_j): no differences
+   are taken, so the result is exact up to rounding.  The FMU inputs feeding p (the base motion) move p. */
+static int directional(void *sim, const double *x, const double *in, const double *dx, const double *din, double *dy,
+                       double *ddx, NativeResult *r) {
+    (void)r;
+    LtiSim *s = sim;
+    const LtiModel *m = s->m;
+    const ffx_lti_model *k = &m->kernel;
+    assemble(s, in);
+    for (int q = 0; q < k->nu; q++) s->du[q] = din[m->u_from_input[q]];
+    for (int q = 0; q < k->np; q++) s->dp[q] = m->p_from_input[q] >= 0 ? din[m->p_from_input[q]] : 0.0;
+    ffx_lti_monomials(k->np, s->p, s->mono);
+    s->dmono[0] = 0.0;
+    for (int i = 0; i < k->np; i++) s->dmono[1 + i] = s->dp[i];
+    for (int i = 0, q = 1 + k->np; i < k->np; i++)
+        for (int j = i; j < k->np; j++) s->dmono[q++] = s->p[i] * s->dp[j] + s->dp[i] * s->p[j];
+    int nx = k->nx, nu = k->nu;
+    if (ddx) {
+        memset(ddx, 0, sizeof(double) * (size_t)nx);
+        add_affine(k, nx, k->A, k->B, NULL, s->mono, dx, s->du, ddx);
+        add_affine(k, nx, k->A, k->B, k->b, s->dmono, x, s->u, ddx);
+    }
+    double *d = s->dy;
+    memset(d, 0, sizeof(double) * (size_t)k->ny);
+    add_affine(k, k->ny, k->Cx, k->Cu, NULL, s->mono, dx, s->du, d);
+    add_affine(k, k->ny, k->Cx, k->Cu, k->y0, s->dmono, x, s->u, d);
+    memcpy(s->z, x, sizeof(double) * (size_t)nx);
+    memcpy(s->z + nx, s->u, sizeof(double) * (size_t)nu);
+    memcpy(s->z + nx + nu, s->mono, sizeof(double) * (size_t)k->nmono);
+    memcpy(s->dz, dx, sizeof(double) * (size_t)nx);
+    memcpy(s->dz + nx, s->du, sizeof(double) * (size_t)nu);
+    memcpy(s->dz + nx + nu, s->dmono, sizeof(double) * (size_t)k->nmono);
+    for (int q = 0; q < k->nquad; q++) {
+        int i = k->quad_i[q], j = k->quad_j[q];
+        d[k->quad_row[q]] += k->quad_value[q] * (s->dz[i] * s->z[j] + s->z[i] * s->dz[j]);
+    }
+    int finite = 1;
+    for (int q = 0; q < k->ny; q++) {
+        dy[m->y_to_output[q]] = d[q];
+        finite &= isfinite(d[q]) != 0;
+    }
+    for (int i = 0; ddx && i < nx; i++) finite &= isfinite(ddx[i]) != 0;
+    return finite ? BRIDGE_OK : NATIVE_NOT_FINITE;
+}
+
 const NativeKind native_lti_kind = {.name = "lti",
                                     .load = load,
                                     .free_model = free_model,
@@ -358,4 +457,6 @@ const NativeKind native_lti_kind = {.name = "lti",
                                     .free_sim = free_sim,
                                     .step = step,
                                     .outputs = outputs,
-                                    .culprit = culprit};
+                                    .culprit = culprit,
+                                    .derivatives = derivatives,
+                                    .directional = directional};
