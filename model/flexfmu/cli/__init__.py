@@ -16,6 +16,7 @@
     flexfmu wec power-matrix [SYSTEM_FILE] [--hs H1,H2,..] [--tp T1,T2,..] [--seeds N] [--t-end T]
                     [--serial | --scheduler ADDRESS] [--out power_matrix.csv] [--plot power_matrix.png]
     flexfmu bench [performance|work-precision|stability|spinup] [--quick] [--out FILE]
+    flexfmu cross-check OUT_DIR [--model NAME...] [--fmi-version 2 3] [--interface cs me] [--platform NAME...]
     flexfmu main            the modal report of the paper's specimen (python3 tasks.py main does more)
 
 Bad input exits with status 2 and a one-line message naming the parameter.
@@ -26,7 +27,7 @@ import argparse
 import sys
 
 # one module per command, its parser and handler together; the library does the work
-from flexfmu.cli import bench, build, cosim, export, modal, reframe, wec
+from flexfmu.cli import bench, build, cosim, cross_check, export, modal, reframe, wec
 from flexfmu.cli.bench import BENCH_STUDIES
 from flexfmu.errors import FlexfmuError
 
@@ -36,7 +37,7 @@ __all__ = ["BENCH_STUDIES", "build_parser", "main"]
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    for command in (modal, export, build, reframe, cosim, wec, bench):
+    for command in (modal, export, build, reframe, cosim, wec, bench, cross_check):
         command.add_parser(sub)
     modal.add_main_parser(sub)
     return parser
