@@ -7,18 +7,10 @@ from pathlib import Path
 from flexfmu.errors import ParameterError
 
 
-def check_fmi_version(args: argparse.Namespace) -> None:
-    """--fmi-version 3 is the native runtime's: the Python runtime's FMUs are FMI 2.0 only for now."""
-    if args.fmi_version == 3 and args.runtime != "native":
-        raise ParameterError("fmi-version", "3 needs --runtime native (the Python runtime makes FMI 2.0 FMUs only, "
-                                            "for now)", "--fmi-version 2, or --runtime native --fmi-version 3")
-
-
 def add_fmi_version(parser) -> None:
-    """--fmi-version 2|3 on ``parser`` (flexfmu build and export)."""
+    """--fmi-version 2|3 on ``parser`` (flexfmu build and export; both runtimes)."""
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2, metavar="{2,3}",
-                        help="2 (default): FMI 2.0 co-simulation; 3: FMI 3.0 co-simulation (--runtime native only; "
-                             "docs/fmu.md, 'FMI 3.0')")
+                        help="2 (default): FMI 2.0 co-simulation; 3: FMI 3.0 co-simulation (docs/fmu.md, 'FMI 3.0')")
 
 
 def _settings(pairs: list) -> dict:
@@ -36,7 +28,6 @@ def _build(args: argparse.Namespace) -> int:
     """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout; with --runtime
     native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
     out = args.out if args.out else Path("dist")
-    check_fmi_version(args)
     if args.runtime == "native":
         from flexfmu.fmi.native import build_registry_fmu
         target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name,
@@ -51,7 +42,7 @@ def _build(args: argparse.Namespace) -> int:
         raise ParameterError("set", "is an option of --runtime native (a Python FMU takes its parameters when "
                                     "instantiated)", "--runtime native --set NAME=VALUE")
     from flexfmu.fmi.build import build
-    build(out)
+    build(out, args.fmi_version)
     return 0
 
 

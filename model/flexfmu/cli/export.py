@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from flexfmu.cli.build import add_fmi_version, check_fmi_version
+from flexfmu.cli.build import add_fmi_version
 from flexfmu.cli.model_file import add_model_options, load_user_model
 from flexfmu.errors import ParameterError
 
@@ -17,7 +17,6 @@ def _export(args: argparse.Namespace) -> int:
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
-    check_fmi_version(args)
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -34,8 +33,9 @@ def _export(args: argparse.Namespace) -> int:
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
     target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version)
-    version = ", FMI 3.0" if args.fmi_version == 3 else ""
-    print(f"wrote {target}: {body.summary()}" + (f" (native runtime{version})" if args.runtime == "native" else ""))
+    version = "FMI 3.0" if args.fmi_version == 3 else ""
+    notes = ", ".join(note for note in ("native runtime" if args.runtime == "native" else "", version) if note)
+    print(f"wrote {target}: {body.summary()}" + (f" ({notes})" if notes else ""))
     return 0
 
 

@@ -2,11 +2,17 @@
 installed one), then complete modelDescription.xml with what pythonfmu cannot declare and validate the
 result with fmpy.
 
-    flexfmu build [--out dist]          (also: python build_scripts/build_fmus.py [--out dist])
+    flexfmu build [--out dist] [--fmi-version 2|3]     (also: python build_scripts/build_fmus.py [--out dist])
 
 Post-processing: units and UnitDefinitions, a DefaultExperiment, outputs declared
 initial="calculated" with InitialUnknowns (their start values depend on the parameters), and the
 flexfmu runtime (flexfmu.fmi.runtime) in place of pythonfmu's binary.
+
+FMI 3.0 (``fmi_version=3``): pythonfmu writes FMI 2.0 only, so the FMU is built as above and then given the FMI 3.0
+modelDescription of flexfmu.fmi.description_fmi3 from the same variable table (flexfmu.fmi.variables.table, as the
+model file's), the same GUID (its instantiationToken, which the runtime checks against the model file), FMI 3.0's
+layout (binaries/x86_64-linux/) and the FMI 3.0 front (flexfmu.fmi.runtime.compile_runtime(..., 3)) over the same
+bridge: the same runtime steps the same model file.
 """
 from __future__ import annotations
 
@@ -17,17 +23,13 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from flexfmu import __version__
+from flexfmu.errors import ParameterError
 from flexfmu.fmi import archive, registry, runtime
 from flexfmu.fmi.loader import package_build_id
+from flexfmu.fmi.units import UNITS  # SI base-unit exponents of every unit used
 
 PACKAGE = Path(__file__).resolve().parents[1]      # the flexfmu package this module belongs to
 
-# SI base-unit exponents of every unit used.
-UNITS = {
-    "m": {"m": 1}, "m/s": {"m": 1, "s": -1}, "m/s2": {"m": 1, "s": -2}, "N": {"kg": 1, "m": 1, "s": -2},
-    "N.m": {"kg": 1, "m": 2, "s": -2}, "Hz": {"s": -1}, "J": {"kg": 1, "m": 2, "s": -2},
-    "rad/s": {"rad": 1, "s": -1}, "rad/s2": {"rad": 1, "s": -2}, "s": {"s": 1}, "kg": {"kg": 1},
-}
 
 
 def _complete_model_description(xml_text: str, info: dict, experiment: dict) -> bytes:
@@ -71,21 +73,49 @@ def _rewrite_model_description(fmu: Path, info: dict, experiment: dict, document
     archive.write_members(fmu, members)
 
 
+def _as_fmi3(fmu: Path, spec, experiment: dict) -> None:
+    """The FMI 2.0 Python FMU at ``fmu`` (built by build_one, its front an FMI 3.0 one) made FMI 3.0, in place."""
+    from types import SimpleNamespace
+
+    from flexfmu.fmi import description_fmi3
+
+    members = archive.read_members(fmu)
+    fmi2 = ET.fromstring(members["modelDescription.xml"])
+    name = fmi2.find("CoSimulation").get("modelIdentifier")
+    source = SimpleNamespace(name=name, description=spec.description, spec=spec, values=None, experiment=experiment)
+    root = ET.fromstring(description_fmi3.model_description(source, fmi2.get("guid")))
+    # what the Python runtime differs in from the native one, for which description_fmi3 writes: its tool, and a
+    # Python installation it needs on the host (FMI 2.0's needsExecutionTool, as pythonfmu declares it)
+    root.set("generationTool", f"flexfmu {__version__} (Python runtime)")
+    root.find("CoSimulation").set("needsExecutionTool", fmi2.find("CoSimulation").get("needsExecutionTool", "true"))
+    ET.indent(root, "\t")
+    members["modelDescription.xml"] = b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+    members = description_fmi3.fmi3_layout(members, name, ())
+    members.pop("sources/buildDescription.xml")        # a Python FMU ships no C sources to build
+    archive.write_members(fmu, members)
+
+
 def build_one(spec, target: Path, runtime_files, *, experiment: dict | None = None, resources: tuple[Path, ...] = (),
-              documentation: dict | None = None) -> Path:
+              documentation: dict | None = None, fmi_version: int = 2) -> Path:
     """The FMU of ``spec`` (flexfmu.fmi.slave.FmuModel) at ``target``: its slave script (flexfmu.fmi.slave), the
     bundled flexfmu, the files ``resources`` (in resources/, where the slave finds them at build time too: pythonfmu
     instantiates it there), the completed modelDescription (DefaultExperiment ``experiment``, else the spec's),
-    the model file, ``documentation`` {file name: text} in documentation/, the runtime; validated."""
+    the model file, ``documentation`` {file name: text} in documentation/, the runtime; validated.
+    ``fmi_version`` 3: FMI 3.0 co-simulation, ``runtime_files`` from runtime.compile_runtime(folder, 3)."""
     from fmpy.validation import validate_fmu
     from pythonfmu.builder import FmuBuilder
 
     from flexfmu.fmi.slave import slave_script
 
+    if fmi_version not in (2, 3):
+        raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
     name = spec.name
     script_text = slave_script(spec)
     experiment = spec.experiment if experiment is None else experiment
     front, bridge = runtime_files
+    if (runtime.FMI3_ENTRY in Path(front).read_bytes()) != (fmi_version == 3):
+        raise ParameterError("runtime_files", f"the front {front} is not of FMI version {fmi_version}",
+                             f"runtime.compile_runtime(folder, {fmi_version})")
     build_info = {"version": __version__, "build_id": package_build_id(str(PACKAGE))}
     with tempfile.TemporaryDirectory() as tmp:
         script = Path(tmp) / "slave" / f"{name}.py"
@@ -100,6 +130,8 @@ def build_one(spec, target: Path, runtime_files, *, experiment: dict | None = No
         documentation = {**(documentation or {}), f"{name}_slave.py": script_text}
         _rewrite_model_description(fmu, spec.variable_info, experiment, documentation)
         runtime.install(fmu, front, bridge, {**build_info, "slave_script": script.name}, spec)
+        if fmi_version == 3:
+            _as_fmi3(fmu, spec, experiment)
         target = Path(target)
         target.parent.mkdir(parents=True, exist_ok=True)
         shutil.move(str(fmu), target)
@@ -109,14 +141,16 @@ def build_one(spec, target: Path, runtime_files, *, experiment: dict | None = No
     return target
 
 
-def build(out: Path) -> list[Path]:
-    """Every FMU of flexfmu.fmi.registry into the folder ``out``."""
+def build(out: Path, fmi_version: int = 2) -> list[Path]:
+    """Every FMU of flexfmu.fmi.registry into the folder ``out``, FMI 2.0 or (``fmi_version`` 3) FMI 3.0
+    co-simulation."""
     out.mkdir(parents=True, exist_ok=True)
-    runtime_files = runtime.compile_runtime(runtime.build_folder())
+    runtime_files = runtime.compile_runtime(runtime.build_folder(), fmi_version)
+    version = "FMI 3.0; " if fmi_version == 3 else ""
     built = []
     for spec in registry.FMUS:
-        target = build_one(spec, out / f"{spec.name}.fmu", runtime_files)
-        print(f"built {target} (fmpy validate: no problems)")
+        target = build_one(spec, out / f"{spec.name}.fmu", runtime_files, fmi_version=fmi_version)
+        print(f"built {target} ({version}fmpy validate: no problems)")
         built.append(target)
     return built
 
@@ -124,6 +158,7 @@ def build(out: Path) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("dist"), help="output folder (default: dist)")
+    parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2, help="2 (default) or 3")
     args = parser.parse_args(argv)
-    build(args.out)
+    build(args.out, args.fmi_version)
     return 0

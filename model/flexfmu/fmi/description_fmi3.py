@@ -56,13 +56,13 @@ def model_description(source, guid: str, *, variables=None, units: dict | None =
     """modelDescription.xml (FMI 3.0 co-simulation) of a native FMU's source (flexfmu.fmi.native_build.NativeSource:
     its name, description, spec, the values built with, the DefaultExperiment); ``variables``: the table
     (default: flexfmu.fmi.variables.table(source.spec, source.values)), ``units``: SI base-unit exponents per
-    unit (default: flexfmu.fmi.build.UNITS)."""
+    unit (default: flexfmu.fmi.units.UNITS)."""
     from flexfmu import __version__
     from flexfmu.errors import ParameterError
     from flexfmu.fmi.variables import table
 
     if units is None:
-        from flexfmu.fmi.build import UNITS as units
+        from flexfmu.fmi.units import UNITS as units
     rows = list(variables if variables is not None else table(source.spec, source.values))
     if len(rows) >= TIME_VALUE_REFERENCE:
         raise ParameterError("variables", f"{len(rows)} variables", f"fewer than {TIME_VALUE_REFERENCE}")

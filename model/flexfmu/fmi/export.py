@@ -22,15 +22,14 @@ def export_fmu(body, target: Path, *, description: str | None = None, runtime: s
                fmi_version: int = 2) -> Path:
     """Build the FMU of ``body`` (flexfmu.body.FlexBody) at ``target`` (``NAME.fmu``; NAME becomes the
     modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native, which does not import this module);
-    ``fmi_version`` 3: FMI 3.0 co-simulation (the native runtime only)."""
+    ``fmi_version`` 3: FMI 3.0 co-simulation (either runtime)."""
     if runtime == "native":
         from flexfmu.fmi.native import export_native
         return export_native(body, target, description=description, fmi_version=fmi_version)
     if runtime != "python":
         raise ParameterError("runtime", f"got {runtime!r}", "python | native")
-    if fmi_version != 2:
-        raise ParameterError("fmi_version", f"{fmi_version!r} with the Python runtime, whose FMUs are FMI 2.0 only "
-                             "for now", "2, or runtime native for FMI 3.0")
+    if fmi_version not in (2, 3):
+        raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
     from flexfmu.fmi import build
     from flexfmu.fmi import runtime as python_runtime
 
@@ -41,6 +40,7 @@ def export_fmu(body, target: Path, *, description: str | None = None, runtime: s
         model_file = Path(tmp) / BODY_FILE
         body.save(model_file)
         spec = ExportedSpec(name, description, body)
-        runtime_files = python_runtime.compile_runtime(python_runtime.build_folder())
+        runtime_files = python_runtime.compile_runtime(python_runtime.build_folder(), fmi_version)
         return build.build_one(spec, target, runtime_files, experiment=default_experiment(body),
-                               resources=(model_file,), documentation={"index.html": documentation_html(name, body)})
+                               resources=(model_file,), documentation={"index.html": documentation_html(name, body)},
+                               fmi_version=fmi_version)

@@ -2,7 +2,8 @@
 
 pythonfmu builds the modelDescription and the FMU's layout; its binary is replaced by ours
 (the C sources in flexfmu/fmi/csrc/, shipped with the package): a front library with no Python symbols (the FMI entry
-points, the call-sequence table, finding libpython) and a bridge library, compiled against this interpreter's headers:
+points, the call-sequence table, finding libpython; FMI 2.0: flexfmu_fmi2.c, FMI 3.0: flexfmu_fmi3.c beside it) and a
+bridge library, the same for both FMI versions, compiled against this interpreter's headers:
 the runtime every flexfmu FMU has (flexfmu_native.c: variables, checks, time, FMU states) over the Python kind
 (native_python.c), which calls the simulator through flexfmu.fmi.plumbing.  The resources get what the binary needs to start Python and load the slave without any
 set-up on the build machine, and what a user needs to move the FMU to another one:
@@ -69,14 +70,32 @@ def _run(command: list[str]) -> None:
         raise RuntimeBuildError(f"compiling the FMU runtime failed:\n{' '.join(command)}\n{result.stderr}")
 
 
-def compile_runtime(folder: Path) -> tuple[Path, Path]:
-    """(front, bridge) shared libraries compiled into ``folder``."""
+#: the front's C sources per FMI version.  FMI 3.0's front is flexfmu_fmi3.c beside flexfmu_fmi2.c, which holds the
+#: code both fronts share (front_common.c, included there): the arrangement of the native library (native_build
+#: _FRONT), without FLEXFMU_NATIVE, so it loads the Python bridge.  That front also answers FMI 2.0 calls; an FMI 2.0
+#: FMU keeps the front of flexfmu_fmi2.c alone.
+FRONT_SOURCES = {2: ("flexfmu_fmi2.c",), 3: ("flexfmu_fmi2.c", "flexfmu_fmi3.c")}
+#: a symbol only an FMI 3.0 front exports (flexfmu.fmi.build checks that an FMI 3.0 FMU gets such a front)
+FMI3_ENTRY = b"fmi3InstantiateCoSimulation"
+
+
+def compile_runtime(folder: Path, fmi_version: int = 2) -> tuple[Path, Path]:
+    """(front, bridge) shared libraries compiled into ``folder``: the front of FMI version ``fmi_version`` (2 or 3);
+    the bridge (the runtime over the Python kind) is the same for both."""
+    from flexfmu.errors import ParameterError
+
+    if fmi_version not in FRONT_SOURCES:
+        raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
     gcc = _compiler()
     common = ["-std=c11", "-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-Werror", "-Wno-format-truncation",
               "-fvisibility=hidden",  # messages may be cut to their buffers on purpose
-              f"-I{_fmi2_headers()}", f"-I{RUNTIME}"]
-    front, bridge = folder / "front.so", folder / "bridge.so"
-    _run([gcc, *common, str(RUNTIME / "flexfmu_fmi2.c"), "-o", str(front), "-ldl", "-lpthread", "-lm"])
+              f"-I{_fmi2_headers()}", f"-I{RUNTIME}"]     # fmpy's c-code holds the FMI 3.0 headers too
+    if fmi_version == 3 and not (_fmi2_headers() / "fmi3Functions.h").is_file():
+        raise RuntimeBuildError(f"FMI 3.0 headers not found in {_fmi2_headers()} (fmpy installation incomplete?)")
+    front = folder / ("front.so" if fmi_version == 2 else "front_fmi3.so")
+    bridge = folder / "bridge.so"
+    _run([gcc, *common, *(str(RUNTIME / name) for name in FRONT_SOURCES[fmi_version]), "-o", str(front), "-ldl",
+          "-lpthread", "-lm"])
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").is_file():
         raise RuntimeBuildError(f"Python.h not found in {include}: install this Python's headers (e.g. python3-dev)")
