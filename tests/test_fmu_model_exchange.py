@@ -331,3 +331,25 @@ def test_every_model_exchange_function_in_every_state_follows_the_table(fmus, ve
                 continue
             inst.fmu.freeInstance()
     assert not problems, "\n".join(problems)
+
+
+def test_cli_builds_model_exchange_and_refuses_it_where_there_is_none(tmp_path):
+    import sys
+
+    def flexfmu(*args):
+        return subprocess.run([sys.executable, "-m", "flexfmu", *map(str, args)], capture_output=True, text=True,
+                              timeout=600)
+    built = flexfmu("build", "--runtime", "native", "--interface", "both", "--set", "n_modes=4", "--out", tmp_path)
+    assert built.returncode == 0, built.stderr
+    assert "co-simulation and model exchange" in built.stdout
+    md = read_model_description(str(tmp_path / "FFRBeam.fmu"))
+    assert md.modelExchange is not None and md.coSimulation is not None and len(md.derivatives) == 8
+    for args, expected in [
+            (("build", "--interface", "me", "--out", tmp_path), "--interface: me: the Python runtime's FMUs are "
+                                                                "co-simulation only"),
+            (("build", "--runtime", "native", "--fmu", "ReframeBody", "--interface-type", "me", "--out", tmp_path),
+             "interface: me: a free body (the reframe kind) is co-simulation only"),
+            (("export", ROOT / "examples" / "bracket" / "bracket.json", "-o", tmp_path / "B.fmu", "--interface", "me",
+              "--modes", "4"), "'me' names no body interface; the FMI interface type is --interface-type")]:
+        run = flexfmu(*args)
+        assert run.returncode == 2 and expected in run.stderr, run.stderr

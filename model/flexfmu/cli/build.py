@@ -10,7 +10,24 @@ from flexfmu.errors import ParameterError
 def add_fmi_version(parser) -> None:
     """--fmi-version 2|3 on ``parser`` (flexfmu build and export; both runtimes)."""
     parser.add_argument("--fmi-version", type=int, choices=(2, 3), default=2, metavar="{2,3}",
-                        help="2 (default): FMI 2.0 co-simulation; 3: FMI 3.0 co-simulation (docs/fmu.md, 'FMI 3.0')")
+                        help="2 (default): FMI 2.0; 3: FMI 3.0 (docs/fmu.md, 'FMI 3.0')")
+
+
+def add_interface_type(parser, *flags: str) -> None:
+    """The FMI interface type(s) of the FMU on ``parser`` (``flags``: flexfmu build takes --interface and
+    --interface-type, flexfmu export --interface-type, its --interface naming a body's interfaces)."""
+    parser.add_argument(*flags, dest="interface_type", choices=("cs", "me", "both"), default="cs",
+                        help="cs (default): co-simulation; me: model exchange; both (--runtime native; model exchange "
+                             "for FFRBeam and clamped bodies, whose equations are ODEs; free bodies are "
+                             "co-simulation only: docs/fmu.md, 'Model exchange and directional derivatives')")
+
+
+def check_interface_type(args: argparse.Namespace, option: str) -> None:
+    """Model exchange is the native runtime's: refused for the Python runtime before any work."""
+    if args.interface_type != "cs" and args.runtime != "native":
+        raise ParameterError(option, f"{args.interface_type}: the Python runtime's FMUs are co-simulation only; model "
+                             "exchange is the native runtime's (FFRBeam, clamped bodies)",
+                             f"cs, or --runtime native {option} {args.interface_type}")
 
 
 def _settings(pairs: list) -> dict:
@@ -28,12 +45,14 @@ def _build(args: argparse.Namespace) -> int:
     """Build the FMUs (flexfmu.fmi.build) from this flexfmu, installed or a source checkout; with --runtime
     native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
     out = args.out if args.out else Path("dist")
+    check_interface_type(args, "--interface")
     if args.runtime == "native":
         from flexfmu.fmi.native import build_registry_fmu
         target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name,
-                                    fmi_version=args.fmi_version)
+                                    fmi_version=args.fmi_version, interface=args.interface_type)
         version = ", FMI 3.0" if args.fmi_version == 3 else ""
-        print(f"built {target} (native runtime{version}; fmpy validate: no problems)")
+        kinds = {"cs": "", "me": ", model exchange", "both": ", co-simulation and model exchange"}[args.interface_type]
+        print(f"built {target} (native runtime{version}{kinds}; fmpy validate: no problems)")
         return 0
     for option in ("fmu", "name"):
         if getattr(args, option) is not None:
@@ -61,4 +80,5 @@ def add_parser(sub) -> None:
     build.add_argument("--name", default=None, metavar="ID",
                        help="native: the model identifier and file stem (default: the FMU's name)")
     add_fmi_version(build)
+    add_interface_type(build, "--interface", "--interface-type")
     build.set_defaults(func=_build)

@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from flexfmu.cli.build import add_fmi_version
+from flexfmu.cli.build import add_fmi_version, add_interface_type, check_interface_type
 from flexfmu.cli.model_file import add_model_options, load_user_model
 from flexfmu.errors import ParameterError
 
@@ -17,6 +17,7 @@ def _export(args: argparse.Namespace) -> int:
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
+    check_interface_type(args, "--interface-type")
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -25,6 +26,10 @@ def _export(args: argparse.Namespace) -> int:
         raise ParameterError("modes", "no model size given", "--modes N, or --f-max HZ [--tolerance TOL]")
     if not args.interface:
         raise ParameterError("interface", "none given", "at least one --interface NAME=X,Y,Z | NAME=SET")
+    for text in args.interface:
+        if text in ("cs", "me", "both"):     # flexfmu build's --interface: here it names a body's interface
+            raise ParameterError("interface", f"{text!r} names no body interface; the FMI interface type is "
+                                 "--interface-type", f"--interface-type {text}, and --interface NAME=X,Y,Z | NAME=SET")
     interfaces = [interface_from_text(text) for text in args.interface]
     structure = load_user_model(args)
     body = build_body(structure, interfaces=interfaces, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes,
@@ -32,9 +37,11 @@ def _export(args: argparse.Namespace) -> int:
                       tolerance=args.tolerance, damping_ratio=args.damping)
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
-    target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version)
+    target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version,
+                        interface=args.interface_type)
     version = "FMI 3.0" if args.fmi_version == 3 else ""
-    notes = ", ".join(note for note in ("native runtime" if args.runtime == "native" else "", version) if note)
+    kinds = {"cs": "", "me": "model exchange", "both": "co-simulation and model exchange"}[args.interface_type]
+    notes = ", ".join(note for note in ("native runtime" if args.runtime == "native" else "", version, kinds) if note)
     print(f"wrote {target}: {body.summary()}" + (f" ({notes})" if notes else ""))
     return 0
 
@@ -44,7 +51,8 @@ def add_parser(sub) -> None:
     export = sub.add_parser(
         "export", help="a model file as a self-contained FMU of a flexible body with named interfaces",
         description="Turn a structural model (a mesh with its material, a Nastran deck, an MAPDL .full, a .npz or a "
-                    "beam scene) into an FMI 2.0 co-simulation FMU: a free body (reframe integrator) or, with --clamp "
+                    "beam scene) into an FMU (FMI 2.0 or 3.0; co-simulation, and with --runtime native model exchange "
+                    "of a clamped body: --interface-type): a free body (reframe integrator) or, with --clamp "
                     "or constrained DOFs in the file, a body clamped on a moving base; per interface NAME the inputs "
                     "NAME.F_x/y/z (and NAME.M_x/y/z) and the outputs NAME.pos_*/vel_*/acc_*, plus the body outputs "
                     "and f_1 ... f_6. Lengths and coordinates in m (after --length-unit scaling). See docs/export.md.")
@@ -71,4 +79,5 @@ def add_parser(sub) -> None:
                              "with no Python (clamped and free bodies; a free body's scheme exponential fixed at build; docs/fmu.md, "
                              "'Native runtime')")
     add_fmi_version(export)
+    add_interface_type(export, "--interface-type")
     export.set_defaults(func=_export)
