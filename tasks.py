@@ -169,6 +169,12 @@ def main() -> int:
         for argv in (["-m", "flexfmu", "main"], ["build_scripts/build_fmus.py", "--out", "dist"],
                      ["examples/hammer_test.py", "--fmu", "dist/FFRBeam.fmu", "--plot", "dist/hammer_fft.png"],
                      ["examples/reframe_plate.py", "--fmu", "dist/ReframeBody.fmu", "--plot", "dist/reframe_plate.png"],
+                     # the native FFRBeam (no Python) for every FMI tool: FMI 2.0 and 3.0, co-simulation and model
+                     # exchange, linux64/win64/aarch64 binaries (docs/fmu.md), and the FMI cross-check packages
+                     ["-m", "flexfmu", "build", "--runtime", "native", "--interface", "both", "--out", "dist/native"],
+                     ["-m", "flexfmu", "build", "--runtime", "native", "--interface", "both", "--fmi-version", "3",
+                      "--out", "dist/native/fmi3"],
+                     ["-m", "flexfmu", "cross-check", "dist/cross-check", "--interface", "cs", "me"],
                      # a user's mesh as an FMU, run in the wave-converter system (docs/export.md)
                      ["-m", "flexfmu", "export", "examples/bracket/bracket.json", "-o", "dist/Bracket.fmu",
                       "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top", "--f-max", "2000"],
