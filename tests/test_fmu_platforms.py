@@ -7,17 +7,15 @@ Why bit for bit, not a tolerance: the three binaries are compiled from the same 
 fast-math, no FMA contraction: flexfmu.native.compiler), and the hosts make the same FMI calls with the same
 numbers (passed as binary64 bit patterns, never as decimal text).  The clamped kinds (FFRBeam, exported clamped
 bodies) step by matrix products, sums and quotients alone, which IEEE-754 rounds identically on x86-64 and aarch64;
-libm (glibc's on Linux, MinGW-w64's and msvcrt's on Windows, which may differ in the last bit) enters only the
-choice of the matrix exponential's scaling (pow, log2 under ceil), which a last-bit difference could change only
-at a threshold.  So any difference is a defect of the build (a flag lost, contraction on aarch64), not rounding.
+libm (glibc's on Linux, MinGW-w64's on Windows, which may differ in the last bit) enters only the choice of the
+matrix exponential's scaling (pow, log2 under ceil), which a last-bit difference could change only at a threshold.
+So any difference is a defect of the build (a flag lost, contraction on aarch64), not rounding.  The free kinds,
+whose every step calls sin, cos and atan2, and FMI 3.0: tests/test_fmu_platforms_free.py.
 
-Wine starts its prefix (wineboot) on first use, which takes seconds to a minute: the prefix is kept in the system
-temp folder between runs ($FLEXFMU_TEST_WINEPREFIX overrides).  tasks.py installs the cross compilers, Wine and
-qemu-user on Debian/Ubuntu; without them these tests skip, naming what to install.
+The hosts, the records and how they run: tests/platform_hosts.py (Wine's prefix, what to install).
 """
 from __future__ import annotations
 
-import os
 import shutil
 import struct
 import subprocess
@@ -31,110 +29,19 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from host_tools import clean_environment, describe, extract_fmu
-
-ROOT = Path(__file__).resolve().parents[1]
-HOST_SOURCE = Path(__file__).resolve().parent / "fmi2_platform_host.c"
-AARCH64_SYSROOT = Path("/usr/aarch64-linux-gnu")
-#: platform: (compiler, extra flags, runner, Debian packages)
-TOOLS = {
-    "linux64": ("gcc", ("-ldl",), None, "gcc"),
-    "win64": ("x86_64-w64-mingw32-gcc", ("-D__USE_MINGW_ANSI_STDIO=1", "-static-libgcc"), "wine",
-              "gcc-mingw-w64-x86-64 wine"),
-    "aarch64-linux": ("aarch64-linux-gnu-gcc", ("-ldl",), "qemu-aarch64", "gcc-aarch64-linux-gnu qemu-user"),
-}
-#: the paper's hammer record (examples/hammer_test.py): 10 kS/s, 2 s, a 1 ms half-sine of 20 N
-SAMPLE_RATE, DURATION = 10_000, 2.0
-
-
-def bits(value: float) -> str:
-    """A double as the 16 hex digits of its IEEE-754 bits (what the host reads)."""
-    return struct.pack(">d", float(value)).hex()
-
-
-def _hammer_setups() -> dict:
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("hammer_test", ROOT / "examples" / "hammer_test.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    assert module.SAMPLE_RATE == SAMPLE_RATE
-    return module.SETUPS
-
-
-SETUPS = _hammer_setups()
-
-
-# ---------------------------------------------------------------------------------------------- the records
-def half_sine(t: np.ndarray, amplitude: float, width: float = 1e-3) -> np.ndarray:
-    return np.where(t < width, amplitude * np.sin(np.pi * t / width), 0.0)
-
-
-def hammer_case(fmu: Path, boundary: str) -> dict:
-    """tests/test_fmu_native.py's hammer_record through the host: the blow on all three axes at load_s, damping
-    0.002, every output."""
-    load_s, sensor_s = SETUPS[boundary]
-    dt, n = 1.0 / SAMPLE_RATE, int(round(DURATION * SAMPLE_RATE))
-    t = np.arange(n) * dt
-    pulse = half_sine(t, 20.0)
-    return {"fmu": fmu, "step": dt, "signals": {"F_x": pulse, "F_y": 0.7 * pulse, "F_z": 0.4 * pulse},
-            "start": {"boundary": ("s", boundary), "damping_ratio": ("r", 0.002), "load_s": ("r", load_s),
-                      "sensor_s": ("r", sensor_s)}}
-
-
-def bracket_case(fmu: Path) -> dict:
-    """The exported bracket shaken and spun through its base (test_fmu_native's base_motion_record) and struck at
-    its tip: 0.05 s at 10 kS/s.  The base's spin changes at every step, so every step computes new exponential maps
-    (the matrix exponential with its pow and log2): about 1 ms of CPU a step natively, 30 times that under qemu."""
-    dt, n = 1e-4, 500
-    t = np.arange(n) * dt
-    return {"fmu": fmu, "step": dt, "start": {"damping_ratio": ("r", 0.02)},
-            "signals": {"base_a_z": 9.81 * np.sin(40 * t), "base_a_x": np.full(n, 2.0),
-                        "base_w_x": 0.5 * np.sin(7 * t), "base_dw_x": 3.5 * np.cos(7 * t), "base_w_z": np.ones(n),
-                        "tip.F_y": np.where(t < 0.01, 5.0, 0.0), "tip.F_z": half_sine(t, 20.0)}}
-
+from host_tools import extract_fmu
+from platform_hosts import (ROOT, SETUPS, TOOLS, Records, build_hosts, hammer_case, host_environment,
+                            relative_difference)
 
 # ---------------------------------------------------------------------------------------------- fixtures
-def _why_not(platform: str) -> str | None:
-    """Why ``platform``'s host cannot be built or run here (None: it can)."""
-    compiler, _, runner, packages = TOOLS[platform]
-    absent = [tool for tool in (compiler, runner) if tool and shutil.which(tool) is None]
-    if platform == "aarch64-linux" and not (AARCH64_SYSROOT / "lib").is_dir():
-        absent.append(f"the aarch64 C library in {AARCH64_SYSROOT}")
-    if absent:
-        return (f"{', '.join(absent)} not installed: apt-get install {packages} (python3 tasks.py installs them on "
-                "Debian/Ubuntu as root)")
-    return None
-
-
 @pytest.fixture(scope="module")
 def hosts(tmp_path_factory) -> dict:
-    """{platform: the host's command prefix, or why there is none}."""
-    import fmpy
-    folder = tmp_path_factory.mktemp("platform_hosts")
-    headers = Path(fmpy.__file__).parent / "c-code"
-    out = {}
-    for platform, (compiler, flags, runner, _) in TOOLS.items():
-        why = _why_not(platform)
-        if why:
-            out[platform] = why
-            continue
-        exe = folder / f"fmi2_platform_host_{platform}{'.exe' if platform == 'win64' else ''}"
-        proc = subprocess.run([compiler, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", f"-I{headers}", "-o",
-                               str(exe), str(HOST_SOURCE), *flags], capture_output=True, text=True, timeout=300)
-        assert proc.returncode == 0, proc.stderr
-        out[platform] = {"linux64": [exe], "aarch64-linux": [runner, "-L", AARCH64_SYSROOT, exe],
-                         "win64": [runner, exe]}[platform]
-    return out
+    return build_hosts(tmp_path_factory.mktemp("platform_hosts"))
 
 
 @pytest.fixture(scope="module")
 def environment(tmp_path_factory) -> dict:
-    """The hosts' environment: nothing but PATH and HOME, and Wine's prefix (kept between runs: wineboot is slow)
-    with its debug output off."""
-    env = clean_environment(tmp_path_factory.mktemp("platform_home"))
-    user = getattr(os, "getuid", lambda: "user")()
-    prefix = os.environ.get("FLEXFMU_TEST_WINEPREFIX") or str(Path(tempfile.gettempdir()) / f"flexfmu-wine-{user}")
-    return {**env, "WINEPREFIX": prefix, "WINEDEBUG": "-all"}
+    return host_environment(tmp_path_factory.mktemp("platform_home"))
 
 
 @pytest.fixture(scope="module")
@@ -156,65 +63,9 @@ def native(tmp_path_factory) -> dict:
     return fmus
 
 
-def case_of(native: dict, name: str) -> dict:
-    return bracket_case(native[name]) if name == "bracket" else hammer_case(native[name], name)
-
-
-# ---------------------------------------------------------------------------------------------- running
-def host_path(path: Path, platform: str) -> str:
-    """``path`` as the host sees it: Wine maps the Unix root to drive Z:."""
-    return "Z:" + str(path).replace("/", "\\") if platform == "win64" else str(path)
-
-
-def run_case(case: dict, platform: str, hosts: dict, env: dict, folder: Path) -> np.ndarray:
-    """(steps + 1, outputs): every output of ``case`` after initialisation and after each step, from the FMU's
-    ``platform`` binary in that platform's host."""
-    command = hosts[platform]
-    if isinstance(command, str):
-        pytest.skip(f"{platform}: {command}")
-    fmu = Path(case["fmu"])
-    md = read_model_description(str(fmu))
-    if f"binaries/{platform}/" not in " ".join(zipfile.ZipFile(fmu).namelist()):
-        pytest.skip(f"{fmu.name} has no {platform} binary (its cross compiler was missing at build)")
-    variables = {v.name: v for v in md.modelVariables}
-    outputs = [v.name for v in md.modelVariables if v.causality == "output"]
-    inputs = list(case["signals"])
-    n = len(case["signals"][inputs[0]])
-    folder.mkdir(parents=True, exist_ok=True)
-    unzipped = extract_fmu(fmu, folder / "fmu")
-    np.column_stack([case["signals"][k] for k in inputs]).astype("<f8").tofile(folder / "inputs.bin")
-    result = folder / "outputs.bin"
-    result.unlink(missing_ok=True)
-    args = [platform, host_path(unzipped, platform), md.coSimulation.modelIdentifier, md.guid, bits(case["step"]),
-            str(n), host_path(folder / "inputs.bin", platform), host_path(result, platform)]
-    for name, (kind, value) in case["start"].items():
-        args += ["--set", kind, str(variables[name].valueReference), bits(value) if kind == "r" else value]
-    for name in inputs:
-        args += ["--input", str(variables[name].valueReference)]
-    for name in outputs:
-        args += ["--output", str(variables[name].valueReference)]
-    proc = subprocess.run([str(c) for c in (*command, *args)], env=env, cwd=folder, capture_output=True, text=True,
-                          timeout=900, stdin=subprocess.DEVNULL)
-    assert proc.returncode == 0 and result.is_file(), describe(proc, env)
-    return np.fromfile(result, "<f8").reshape(n + 1, len(outputs))
-
-
-def relative_difference(ours: np.ndarray, reference: np.ndarray) -> float:
-    """max over outputs of max |ours - reference| / max |reference| (per output)."""
-    scale = np.abs(reference).max(axis=0)
-    scale[scale == 0] = 1.0
-    return float(np.max(np.abs(ours - reference) / scale))
-
-
-_LINUX64: dict = {}
-
-
-def linux64_run(native, name, hosts, env, tmp_path_factory) -> np.ndarray:
-    """The linux64 binary's record of case ``name`` (once per module)."""
-    if name not in _LINUX64:
-        _LINUX64[name] = run_case(case_of(native, name), "linux64", hosts, env,
-                                  tmp_path_factory.mktemp(f"linux64_{name}"))
-    return _LINUX64[name]
+@pytest.fixture(scope="module")
+def records(native, hosts, environment, tmp_path_factory) -> Records:
+    return Records(native, hosts, environment, tmp_path_factory)
 
 
 # ---------------------------------------------------------------------------------------------- tests
@@ -261,15 +112,12 @@ def test_every_native_fmu_carries_windows_and_arm_binaries_that_need_only_the_sy
 @pytest.mark.host
 @pytest.mark.parametrize("platform", ["win64", "aarch64-linux"])
 @pytest.mark.parametrize("name", ["XFF", "XFX", "FXF", "bracket"])
-def test_each_platform_binary_gives_the_linux64_numbers_bit_for_bit(native, hosts, environment, tmp_path_factory,
-                                                                   platform, name):
+def test_each_platform_binary_gives_the_linux64_numbers_bit_for_bit(records, platform, name):
     """The hammer record (FFRBeam, each boundary: 20 001 rows x every output) and the bracket's base-motion record
     through the win64 DLL under Wine and the aarch64 library under qemu: the linux64 binary's numbers exactly
     (the module docstring says why exactly)."""
-    if isinstance(hosts[platform], str):
-        pytest.skip(f"{platform}: {hosts[platform]}")
-    reference = linux64_run(native, name, hosts, environment, tmp_path_factory)
-    ours = run_case(case_of(native, name), platform, hosts, environment, tmp_path_factory.mktemp(f"{platform}_{name}"))
+    reference = records(name, "linux64")
+    ours = records(name, platform)
     assert ours.shape == reference.shape
     assert np.all(np.isfinite(reference)) and np.max(np.abs(reference)) > 0
     difference = relative_difference(ours, reference)
@@ -279,13 +127,13 @@ def test_each_platform_binary_gives_the_linux64_numbers_bit_for_bit(native, host
 
 
 @pytest.mark.host
-def test_the_linux64_host_gives_fmpys_numbers(native, hosts, environment, tmp_path_factory):
+def test_the_linux64_host_gives_fmpys_numbers(native, records):
     """The reference above is the FMU's own: fmpy making the same calls on the same binary gets the same bits."""
     from fmpy.fmi2 import FMU2Slave
 
     from fmu_helpers import Instance
     case = hammer_case(native["XFF"], "XFF")
-    reference = linux64_run(native, "XFF", hosts, environment, tmp_path_factory)
+    reference = records("XFF", "linux64")
     md = read_model_description(str(native["XFF"]))
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
     inst = Instance(native["XFF"], "fmpy", **{k: v for k, (_, v) in case["start"].items()}).initialize()
