@@ -1072,7 +1072,7 @@ static int refuse_reference(Slave *s, const char *function, BridgeValueType type
         if (extra) continue;
         if (vr[i] >= s->m.n_vars)
             return refuse(s, BRIDGE_ERROR, "%s: unknown value reference %u (this FMU has 0 .. %zu)", function, vr[i],
-                          s->m.n_vars + 2 * states_of(s) - 1);
+                          s->m.n_vars - 1); /* the variables every modelDescription declares */
         const Variable *v = &s->m.vars[vr[i]];
         if (v->type != (int)type)
             return refuse(s, BRIDGE_ERROR, "%s: value reference %u is '%s', a %s variable; use fmi2%s%s", function,
