@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from flexfmu.cosim.checks import MAX_RESULT_BYTES, check_output_path
+from flexfmu.cosim.coupling import COUPLING_SCHEMES, INTERFACE_JACOBIAN, check_interface_jacobians
 from flexfmu.errors import FlexfmuError, ParameterError
 
 
@@ -43,6 +44,8 @@ def _cosim(args: argparse.Namespace) -> int:
     # before anything runs (the stability check included): the file against its FMUs or models, the results' memory
     checked = cosim.check_system(system, "library" if args.master == "library" else "fmu")
     cosim.check_result_memory(n, checked.n_outputs, h, max_bytes)
+    if scheme == INTERFACE_JACOBIAN:    # every FMU fed by a connection must give its interface Jacobian
+        check_interface_jacobians(system, checked, "library" if args.master == "library" else "fmu")
     if not args.no_stability_check:
         try:
             check = cosim.stability_check(system, h, scheme)
@@ -86,7 +89,8 @@ def add_parser(sub) -> None:
     cosim_p = sub.add_parser(
         "cosim", help="co-simulate a system of FMUs described by an OspSystemStructure.xml or an SSP (.ssp)",
         description="Co-simulate a system of FMUs (OSP system structure file, or SSP 1.0) with a fixed communication "
-                    "step: our fmpy master (Gauss-Seidel or Jacobi), libcosim or ecos (Jacobi), or the flexfmu library "
+                    "step: our fmpy master (Gauss-Seidel, Jacobi or interface-Jacobian), libcosim or ecos (Jacobi), or "
+                    "the flexfmu library "
                     "models the FMUs wrap. Warns when the step is outside the system's coupling-stability limit. "
                     "For the "
                     "wave-energy converter (examples/wave_converter/) also prints motion, harvested power and the "
@@ -110,9 +114,11 @@ def add_parser(sub) -> None:
                          help="fmpy (default): our master over the FMUs; libcosim: DNV's libcosim; ecos: the ecos "
                               "engine (ecospy), given the system as SSP; library: the flexfmu models the FMUs wrap, "
                               "without FMI")
-    cosim_p.add_argument("--scheme", choices=("gauss-seidel", "jacobi"), default=None,
+    cosim_p.add_argument("--scheme", choices=COUPLING_SCHEMES, default=None,
                          help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim, "
-                              "ecos: jacobi)")
+                              "ecos: jacobi only). interface-jacobian: every simulator steps, then the coupling "
+                              "equations are solved with the outputs linearised in the inputs (interface Jacobians: "
+                              "the library models' output functions; FMUs must provide directional derivatives)")
     cosim_p.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
                          help="take the FMUs from DIR instead of the file's sources (same file names)")
     cosim_p.add_argument("--plot", type=Path, default=None, metavar="PNG",

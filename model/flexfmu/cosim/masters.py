@@ -5,8 +5,9 @@ Four ways to run the same description, all with a fixed communication step h:
 
 - ``run(system, ..., backend="fmu")``: our own master over fmpy's ``FMU2Slave``, Jacobi (every
   slave steps from t_n with the inputs of t_n, then all outputs are passed on: what libcosim's
-  fixed-step algorithm does) or Gauss-Seidel (slaves step one after the other in the file's order,
-  each with the newest outputs of those before it).
+  fixed-step algorithm does), Gauss-Seidel (slaves step one after the other in the file's order,
+  each with the newest outputs of those before it) or interface-Jacobian (every slave steps, then the
+  coupling equations are solved with the outputs linearised in the inputs: flexfmu.cosim.coupling).
 - ``run(system, ..., backend="library")``: the same loop over the flexfmu façades that the FMUs
   wrap (no FMI, and the components' internal state is at hand, e.g. for the energy audit).
 - ``run_libcosim(system, ...)``: DNV's libcosim through libcosimpy on the same file (Jacobi).
@@ -35,6 +36,7 @@ import numpy as np
 from flexfmu.core.progress import progress_bar
 from flexfmu.cosim.checks import (MAX_RESULT_BYTES, CheckedSystem, check_result_memory, check_system, n_steps,
                                   resolve_connections)
+from flexfmu.cosim.coupling import COUPLING_SCHEMES, INTERFACE_JACOBIAN, InterfaceCoupling, check_interface_jacobians
 from flexfmu.cosim.engines import run_ecos, run_libcosim
 from flexfmu.cosim.results import CosimResult
 from flexfmu.cosim.slaves import LIBRARY_MODULES, FmuSlave, Interface, LibrarySlave, interface
@@ -49,7 +51,6 @@ __all__ = ["BACKENDS", "COUPLING_SCHEMES", "LIBRARY_MODULES", "MAX_RESULT_BYTES"
            "n_steps", "resolve_connections", "run", "run_ecos", "run_libcosim", "settable_variables",
            "spectral_radius", "stability_check", "step_limit", "step_map", "with_assignments", "write_osp"]
 
-COUPLING_SCHEMES = ("jacobi", "gauss-seidel")   # how the master orders the FMUs in a step
 BACKENDS = ("fmu", "library")
 
 
@@ -131,12 +132,26 @@ class Master:
         self.plan = {tgt: [(src, tuple(o), tuple(i)) for src, (o, i) in groups.items()]
                      for tgt, groups in plan.items()}
         self.output_names = {name: self.slaves[name].output_names for name in self.order}
+        self.coupling = InterfaceCoupling(self.order, self.plan)
+        self.coupled_outputs: dict = {}         # interface-Jacobian: the outputs for the solved inputs
 
-    def initialize(self):
+    def initialize(self, scheme: str = "jacobi"):
         for name in self.order:
             self.slaves[name].initialize(self.system.start_time)
+        if scheme == INTERFACE_JACOBIAN:         # the coupling equations solved at t0
+            self.couple(self.system.start_time)
+            return
         for name in self.order:                 # inputs at t0 from the outputs at t0
             self.transfer(name)
+
+    def couple(self, t: float):
+        """Interface-Jacobian: set every connected input to the solution of the linearised coupling equations at the
+        slaves' current state (flexfmu.cosim.coupling) and keep the outputs that belong to them."""
+        self.coupled_outputs = self.coupling.solve(self.slaves, t)
+        for name in self.order:
+            sl = self.slaves[name]
+            if isinstance(sl, LibrarySlave):     # the façade's outputs as seen by record() and state_vector()
+                sl.values.update(zip(sl.output_names, self.coupled_outputs[name].tolist()))
 
     def transfer(self, target: str):
         slaves = self.slaves
@@ -144,7 +159,11 @@ class Master:
             slaves[target].set(ins, slaves[src].get(outs))
 
     def step(self, t: float, h: float, scheme: str):
-        if scheme == "jacobi":
+        if scheme == INTERFACE_JACOBIAN:
+            for name in self.order:
+                self.slaves[name].do_step(t, h)
+            self.couple(t + h)
+        elif scheme == "jacobi":
             for name in self.order:
                 self.slaves[name].do_step(t, h)
             for name in self.order:
@@ -155,6 +174,8 @@ class Master:
                 self.slaves[name].do_step(t, h)
 
     def outputs(self) -> np.ndarray:
+        if self.coupled_outputs:
+            return np.concatenate([self.coupled_outputs[name] for name in self.order])
         return np.concatenate([self.slaves[name].get(self.output_names[name]) for name in self.order])
 
     def column_names(self) -> list:
@@ -210,20 +231,24 @@ class Master:
 def run(system: System, t_end: float, step: float | None = None, scheme: str = "jacobi", backend: str = "fmu",
         progress: bool = False, record: Callable | None = None, label: str = "flexfmu cosim",
         max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
-    """Our master: fixed step, Jacobi or Gauss-Seidel, over FMUs (fmpy) or the library façades.
-    Records every output of every slave at every communication point (t = start .. t_end).
-    ``record(slaves)`` (library backend) may return a dict of extra per-step values.
-    Before anything is instantiated the system is checked against its FMUs or models (check_system) and the
-    recorded results against ``max_result_bytes`` (check_result_memory)."""
+    """Our master: fixed step, Jacobi, Gauss-Seidel or interface-Jacobian (flexfmu.cosim.coupling), over FMUs
+    (fmpy) or the library façades.  Records every output of every slave at every communication point
+    (t = start .. t_end).  ``record(slaves)`` (library backend) may return a dict of extra per-step values.
+    Before anything is instantiated the system is checked against its FMUs or models (check_system), the
+    recorded results against ``max_result_bytes`` (check_result_memory) and, for the interface-Jacobian scheme
+    over FMUs, that every FMU with a connected input provides directional derivatives."""
     require(scheme in COUPLING_SCHEMES, "scheme", f"got {scheme!r}", " | ".join(COUPLING_SCHEMES))
     require(backend in BACKENDS, "backend", f"got {backend!r}", " | ".join(BACKENDS))
     h = float(system.base_step if step is None else step)
     n = n_steps(t_end, system.start_time, h)
-    check_result_memory(n, check_system(system, backend).n_outputs, h, max_result_bytes)
+    checked = check_system(system, backend)
+    check_result_memory(n, checked.n_outputs, h, max_result_bytes)
+    if scheme == INTERFACE_JACOBIAN:
+        check_interface_jacobians(system, checked, backend)
     master = Master(system, backend)
     extra = []
     try:
-        master.initialize()
+        master.initialize(scheme)
         t0 = system.start_time
         first = master.outputs()
         rows = np.empty((n + 1, first.size))
@@ -251,8 +276,9 @@ def run(system: System, t_end: float, step: float | None = None, scheme: str = "
 def step_map(system: System, h: float, scheme: str = "gauss-seidel", t: float = 0.0) -> np.ndarray:
     """The Jacobian of one co-simulation step (library façades) at rest at time t: the map of the
     whole discrete co-simulation state (components' states and the values held between them)."""
+    require(scheme in COUPLING_SCHEMES, "scheme", f"got {scheme!r}", " | ".join(COUPLING_SCHEMES))
     master = Master(system, "library")
-    master.initialize()
+    master.initialize(scheme)
     snap = master.snapshot()
     x0 = master.state_vector()
 

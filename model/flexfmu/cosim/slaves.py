@@ -13,6 +13,8 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+import numpy as np
+
 from flexfmu.cosim.system import SimulatorSpec
 from flexfmu.errors import CosimulationError, ParameterError, require
 from flexfmu.fmi.registry import FMUS
@@ -147,6 +149,37 @@ class LibrarySlave:
         self.sim.step(h)
         self.values.update(self.sim.outputs())
 
+    def output_jacobian(self, names) -> np.ndarray:
+        """D = dy/du: the outputs' (output_names order) derivatives in the inputs ``names`` at the current state and
+        the inputs the façade holds (those of its last step), (n_outputs, len(names)); the interface Jacobian of
+        flexfmu.cosim.coupling.  The façade's state is not touched; its held inputs are restored."""
+        held = {n: self.values[n] for n in self.input_names}
+        D = np.empty((len(self.output_names), len(names)))
+        try:
+            for j, name in enumerate(names):
+                # Central differences (y(u + e) - y(u - e)) / 2e have the truncation error e^2/6 d3y/du3 + ...: none
+                # for an output that is a polynomial of degree <= 2 in the input, which every output of the wave
+                # converter's façades is at fixed state (FFRBeam: affine in F, M, a0 (cross terms eta x F, eta x a0
+                # included), degree 2 in omega, alpha through X = [alpha]x + [omega]x^2; Platform: affine; PTO,
+                # Hydrostatics: affine, energies and power quadratic).  Then only rounding is left, about
+                # u_r |y| / e, smaller the larger e: so e is the input's own size, at least 1 (SI: 1 N, 1 m/s^2,
+                # 1 rad/s, well inside every façade's range), not a small step.  An output of higher degree (FFRBeam's
+                # elastic_energy with static_correction: degree 4 in omega) gets e^2/6 d3y/du3; no connection
+                # reads it, and its recorded value uses D only times the inputs' change over one step.
+                e = max(1.0, abs(held[name]))
+                plus, minus = (self._outputs_with(name, held[name] + s) for s in (e, -e))
+                D[:, j] = (plus - minus) / (2.0 * e)
+                self.sim.set_inputs(**{name: held[name]})
+        finally:
+            self.sim.set_inputs(**held)
+        return D
+
+    def _outputs_with(self, name: str, value: float) -> np.ndarray:
+        """The outputs with the input ``name`` at ``value`` (the others as they are)."""
+        self.sim.set_inputs(**{name: value})
+        out = self.sim.outputs()
+        return np.array([out[n] for n in self.output_names], float)
+
     def free(self):
         pass
 
@@ -172,6 +205,7 @@ class FmuSlave:
         self.output_names = tuple(n for n, c in causality.items() if c == "output")
         self.settable = {v.name for v in md.modelVariables
                          if v.causality in ("parameter", "input") and v.variability != "constant"}
+        self.provides_directional_derivative = bool(getattr(md.coSimulation, "providesDirectionalDerivative", False))
         self.log: list[str] = []
 
         def logger(component, instance_name, status, category, message):
@@ -221,6 +255,22 @@ class FmuSlave:
 
     def do_step(self, t: float, h: float):
         self._call(f"doStep at t = {t:.9g} s", self.fmu.doStep, currentCommunicationPoint=t, communicationStepSize=h)
+
+    def output_jacobian(self, names) -> np.ndarray:
+        """D = dy/du: the outputs' (output_names order) derivatives in the inputs ``names``, (n_outputs, len(names)),
+        from fmi2GetDirectionalDerivative at the current state and the inputs as last set (after a step: those it
+        held; flexfmu_native.c gives the output function's derivatives there, in co-simulation too).  An FMU that
+        does not provide directional derivatives is a ParameterError naming the instance."""
+        require(self.provides_directional_derivative, where(self._spec),
+                f"{self.name}: its FMU {Path(self._spec.source).name} provides no directional derivatives "
+                "(providesDirectionalDerivative is not true in its modelDescription.xml)",
+                "an FMU that provides them; or --master library, or --scheme gauss-seidel | jacobi")
+        unknown = self._vrs(self.output_names)
+        D = np.empty((len(unknown), len(names)))
+        for j, vr in enumerate(self._vrs(names)):
+            D[:, j] = self._call("fmi2GetDirectionalDerivative", self.fmu.getDirectionalDerivative, unknown, [vr],
+                                 [1.0])
+        return D
 
     def free(self):
         try:
