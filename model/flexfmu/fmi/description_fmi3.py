@@ -6,7 +6,9 @@ What FMI 3.0 names otherwise: Real is Float64, Integer Int32 (the runtime's 32-b
 ``<Start value=...>`` child; the outputs are listed by value reference (``<Output>``, ``<InitialUnknown>``: their
 values are computed, ``initial="calculated"``); the one independent variable ``time`` has the value reference
 :data:`TIME_VALUE_REFERENCE` (after every runtime variable's; csrc/flexfmu_fmi3.c reads it as the FMU's time); the
-GUID is the ``instantiationToken``.  Variables are scalars, with their FMI 2.0 names (no arrays).
+GUID is the ``instantiationToken``.  Variables are scalars, with their FMI 2.0 names; a native FMU built with
+``arrays=True`` adds Float64 array views of them (flexfmu.fmi.fmi3_arrays: 3-vectors, modal coordinates, natural
+frequencies, value references from 2^30).
 
 Also here: the text of an FMI 2.0 FMU's documentation or descriptions in FMI 3.0's names (:func:`fmi3_text`), and
 ``sources/buildDescription.xml`` (:func:`build_description`: FMI 3.0's list of the source files).

@@ -416,11 +416,13 @@ def with_interfaces(description: bytes, source: NativeSource, fmi_version: int, 
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
 
 
-def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, interface: str = "cs") -> Path:
+def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, interface: str = "cs",
+                     arrays: bool = False) -> Path:
     """Write the native FMU of ``source`` at ``target`` (NAME.fmu) and check it with fmpy's validation; ``fmi_version``
     3: an FMI 3.0 FMU (flexfmu.fmi.description_fmi3: its modelDescription, platform folders and buildDescription) of
     the same binary; ``interface``: "cs" (co-simulation), "me" (model exchange) or "both" (flexfmu.fmi.interfaces:
-    model exchange for the kinds that are ODEs in fixed coordinates)."""
+    model exchange for the kinds that are ODEs in fixed coordinates); ``arrays`` (FMI 3.0): the Float64 array views
+    of flexfmu.fmi.fmi3_arrays (3-vectors, modal coordinates and natural frequencies) beside the scalars."""
     from flexfmu.fmi.interfaces import check_interface
     from fmpy.validation import validate_fmu
 
@@ -435,10 +437,17 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, inte
         if fmi_version not in (2, 3):
             raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
         types = check_interface(source.kind, interface)
+        if arrays and fmi_version != 3:
+            raise ParameterError("arrays", "FMI 2.0 has no array variables", "fmi_version=3")
         description = model_description(source, guid) if fmi_version == 2 else description_fmi3.model_description(
             source, guid)
         description = with_interfaces(description, source, fmi_version, types)
         entries = model_entries(source, guid)
+        if arrays:
+            from flexfmu.fmi import fmi3_arrays
+            views = fmi3_arrays.source_plan(source, entries)
+            description = fmi3_arrays.with_arrays(description, views)
+            entries.update(views.entries())
         built = {**dataclasses.asdict(source.spec.config_class()), **source.values}
         frozen = {k: v for k, v in built.items() if k not in runtime_names}
         model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)

@@ -9,8 +9,9 @@
 #define FLEXFMU_BRIDGE_H
 
 #include <stddef.h>
+#include <stdint.h>
 
-#define FLEXFMU_BRIDGE_VERSION 2
+#define FLEXFMU_BRIDGE_VERSION 3
 
 /* Statuses as fmi2Status (0 OK, 1 Warning, 2 Discard, 3 Error, 4 Fatal). */
 enum { BRIDGE_OK = 0, BRIDGE_WARNING = 1, BRIDGE_DISCARD = 2, BRIDGE_ERROR = 3, BRIDGE_FATAL = 4 };
@@ -33,6 +34,33 @@ typedef enum {
 } BridgeSimpleCall;
 
 typedef enum { VALUE_REAL, VALUE_INTEGER, VALUE_BOOLEAN, VALUE_STRING } BridgeValueType;
+
+/* FMI 3.0 array variables (version 3): further views of the runtime's own Real values, declared by the model
+   file's fmi3.* entries (flexfmu.fmi.fmi3_arrays); only the FMI 3.0 front asks for them (FMI 2.0 has no arrays). */
+typedef struct {
+    unsigned int vr; /* its FMI 3.0 value reference: a block of its own, above every runtime reference */
+    const char *name;
+    size_t size;            /* its elements (one dimension) */
+    const int32_t *element; /* per element: the runtime value reference it views (a Real variable, continuous state
+                               or state derivative: get_values / set_values), or -1: the constant value[k] */
+    const double *value;
+    int input; /* nonzero: an input (setting the array sets its elements); else read only */
+} BridgeArray;
+
+/* A structural parameter (FMI 3.0 UInt64, causality structuralParameter, fixed at build): an array's size. */
+typedef struct {
+    unsigned int vr;
+    const char *name;
+    uint64_t value;
+    const char *fixed; /* why it is fixed and how to get another value: the end of a refusal */
+} BridgeSize;
+
+typedef struct {
+    size_t n_arrays, n_sizes;
+    const BridgeArray *arrays;
+    const BridgeSize *sizes;
+    unsigned int lowest; /* the smallest value reference of an array or a structural parameter (none: UINT32_MAX) */
+} BridgeArrays;
 
 typedef struct {
     int version;
@@ -69,12 +97,15 @@ typedef struct {
     /* set 0: x = the continuous states; set 1: the continuous states = x (nx of them) */
     int (*continuous_states)(void *slave, const char *function, int set, double *x, size_t nx);
     int (*derivatives)(void *slave, const char *function, double *dx, size_t nx);
-    /* sensitivity[i] = sum_j d unknown[i] / d known[j] seed[j]: unknowns outputs or state derivatives, knowns inputs
-       or states, at the current state and the inputs as last set */
+    /* sensitivity[i] = sum_j d unknown[i] / d known[j] seed[j]: unknowns outputs, state derivatives or (version 3:
+       the FMI 3.0 arrays of the states) states, knowns inputs or states, at the current state and the inputs as last
+       set */
     int (*directional)(void *slave, const char *function, const unsigned int *unknown, size_t n_unknown,
                        const unsigned int *known, size_t n_known, const double *seed, double *sensitivity);
     /* the continuous states' nominal values (their typical sizes: a host scales its absolute tolerance by them) */
     int (*nominals)(void *slave, double *x, size_t nx);
+    /* FMI 3.0 array variables and structural parameters (version 3): the model file's, valid as long as the slave */
+    const BridgeArrays *(*arrays)(void *slave);
 } BridgeApi;
 
 /* The bridge library's one exported symbol. */

@@ -18,8 +18,14 @@
  *  - every call that returns fmi3Error enters Terminated (the standard's rule for the super state FMU State
  *    Settable), from where fmi3Reset, fmi3SetFMUState or fmi3FreeInstance continue;
  *  - variables: Float64, Int32 (FMI 2.0's Integer), Boolean (C bool, converted to and from the runtime's int) and
- *    String, one value per value reference (no arrays); the independent variable `time` has value reference
- *    TIME_VALUE_REFERENCE (flexfmu.fmi.description_fmi3) and reads as the FMU's time;
+ *    String, the runtime's scalars with their FMI 2.0 names and value references; the independent variable `time`
+ *    has value reference TIME_VALUE_REFERENCE (flexfmu.fmi.description_fmi3) and reads as the FMU's time;
+ *  - Float64 arrays (an FMU built with them, flexfmu.fmi.fmi3_arrays): further views of the runtime's values (3-vectors
+ *    of scalars, the modal coordinates and rates of the states, natural frequencies as constants), value references
+ *    in a block of their own that the runtime declares (BridgeApi.arrays); this front expands an array's value
+ *    reference into its elements' (nValues: a scalar counts 1, an array its elements) and serves the arrays' sizes,
+ *    UInt64 structural parameters fixed at build (fmi3GetUInt64; fmi3SetUInt64 in Configuration Mode takes the built
+ *    value only);
  *  - the runtime names FMI 2.0 functions in its messages: the logger gets them with their FMI 3.0 names
  *    (fmi2GetReal -> fmi3GetFloat64, fmi2Discard -> fmi3Discard, ...), and with '#' doubled (FMI 3.0 messages
  *    reference variables as #<valueReference>#); the message is not a format, so '%' stays as it is.
@@ -54,10 +60,11 @@ typedef enum {
     Terminated = 1 << 4,         /* after fmi3Terminate, and after any call that returned fmi3Error */
     EventMode = 1 << 5,          /* model exchange: after fmi3ExitInitializationMode, fmi3EnterEventMode */
     ContinuousTimeMode = 1 << 6, /* model exchange: after fmi3EnterContinuousTimeMode */
+    ConfigurationMode = 1 << 7,  /* after fmi3EnterConfigurationMode (an FMU with structural parameters) */
 } State;
 
 #define ME_MODES (EventMode | ContinuousTimeMode)
-#define ALL_STATES (Instantiated | InitializationMode | StepMode | Terminated | ME_MODES)
+#define ALL_STATES (Instantiated | InitializationMode | StepMode | Terminated | ME_MODES | ConfigurationMode)
 #define VALUES_READABLE (InitializationMode | StepMode | Terminated | ME_MODES)
 #define VALUES_WRITABLE (Instantiated | InitializationMode | StepMode | ME_MODES)
 /* the model is made at fmi3ExitInitializationMode: states, derivatives and directional derivatives from there on */
@@ -138,7 +145,9 @@ typedef enum {
     F_COUNT
 } Function;
 
-#define NO_TYPE "not provided: this FMU has variables of the types Float64, Int32, Boolean and String only"
+#define NO_TYPE                                                                                                        \
+    "not provided: this FMU has variables of the types Float64, Int32, Boolean, String and UInt64 (structural "        \
+    "parameters) only"
 #define NO_EVENT_MODE "not provided: this FMU has no Event Mode (hasEventMode is false)"
 #define NO_CLOCKS "not provided: this FMU has no clocks"
 #define NO_SCHEDULED_EXECUTION "not provided: this FMU is for co-simulation only (no scheduled execution)"
@@ -163,7 +172,7 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_GetInt32] = {"fmi3GetInt32", VALUES_READABLE, NULL},
     [F_GetUInt32] = {"fmi3GetUInt32", 0, NO_TYPE},
     [F_GetInt64] = {"fmi3GetInt64", 0, NO_TYPE},
-    [F_GetUInt64] = {"fmi3GetUInt64", 0, NO_TYPE},
+    [F_GetUInt64] = {"fmi3GetUInt64", VALUES_READABLE | ConfigurationMode, NULL}, /* structural parameters */
     [F_GetBoolean] = {"fmi3GetBoolean", VALUES_READABLE, NULL},
     [F_GetString] = {"fmi3GetString", VALUES_READABLE, NULL},
     [F_GetBinary] = {"fmi3GetBinary", 0, NO_TYPE},
@@ -177,7 +186,7 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_SetInt32] = {"fmi3SetInt32", VALUES_WRITABLE, NULL},
     [F_SetUInt32] = {"fmi3SetUInt32", 0, NO_TYPE},
     [F_SetInt64] = {"fmi3SetInt64", 0, NO_TYPE},
-    [F_SetUInt64] = {"fmi3SetUInt64", 0, NO_TYPE},
+    [F_SetUInt64] = {"fmi3SetUInt64", ConfigurationMode, NULL},
     [F_SetBoolean] = {"fmi3SetBoolean", VALUES_WRITABLE, NULL},
     [F_SetString] = {"fmi3SetString", VALUES_WRITABLE, NULL},
     [F_SetBinary] = {"fmi3SetBinary", 0, NO_TYPE},
@@ -194,9 +203,8 @@ static const FrontCall CALLS[F_COUNT] = {
     [F_DeserializeFMUState] = {"fmi3DeserializeFMUState", ALL_STATES, NULL},
     [F_GetDirectionalDerivative] = {"fmi3GetDirectionalDerivative", MODEL_READABLE, NULL},
     [F_GetAdjointDerivative] = {"fmi3GetAdjointDerivative", 0, "not provided (providesAdjointDerivatives is false)"},
-    [F_EnterConfigurationMode]
-    = {"fmi3EnterConfigurationMode", 0, "not provided: this FMU has no structural parameters"},
-    [F_ExitConfigurationMode] = {"fmi3ExitConfigurationMode", 0, "not provided: this FMU has no structural parameters"},
+    [F_EnterConfigurationMode] = {"fmi3EnterConfigurationMode", Instantiated, NULL},
+    [F_ExitConfigurationMode] = {"fmi3ExitConfigurationMode", ConfigurationMode, NULL},
     [F_GetIntervalDecimal] = {"fmi3GetIntervalDecimal", 0, NO_CLOCKS},
     [F_GetIntervalFraction] = {"fmi3GetIntervalFraction", 0, NO_CLOCKS},
     [F_GetShiftDecimal] = {"fmi3GetShiftDecimal", 0, NO_CLOCKS},
@@ -232,6 +240,7 @@ static const char *state_name(int state) {
     case Terminated: return "Terminated";
     case EventMode: return "EventMode";
     case ContinuousTimeMode: return "ContinuousTimeMode";
+    case ConfigurationMode: return "ConfigurationMode";
     default: return "?";
     }
 }
@@ -244,6 +253,7 @@ typedef struct {
     FrontInstance front;
     int stop_time_defined; /* fmi3EnterInitializationMode's stopTime: no step ends after it */
     double stop_time;
+    const BridgeArrays *arrays; /* the runtime's array variables and structural parameters (none: NULL) */
 } Instance;
 
 /* The runtime's FMI 2.0 function names, as FMI 3.0 names them (any other fmi2X is fmi3X). */
@@ -390,7 +400,10 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                    "resourcePath: neither it (the resources folder of the extracted FMU) nor the folder next to "
                    "this binary holds the FMU's resources (resources/flexfmu_build.json)");
     } else if (front_instantiate_slave(front, name, resources, visible) == 0) {
-        if (front->bridge->model_exchange(front->slave, name) == BRIDGE_OK) return inst;
+        if (front->bridge->model_exchange(front->slave, name) == BRIDGE_OK) {
+            inst->arrays = front->bridge->arrays(front->slave);
+            return inst;
+        }
         front->bridge->free_instance(front->slave);
     }
     front_free_instance_memory(front);
@@ -438,6 +451,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                    "resourcePath: neither it (the resources folder of the extracted FMU) nor the folder next to "
                    "this binary holds the FMU's resources (resources/flexfmu_build.json)");
     } else if (front_instantiate_slave(front, name, resources, visible) == 0) {
+        inst->arrays = front->bridge->arrays(front->slave);
         return inst;
     }
     front_free_instance_memory(front);
@@ -509,25 +523,69 @@ fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
 
 /* ---- FMI 3.0: getting and setting variable values ---------------------------------------------- */
 
-/* One value per value reference (no array variables); `time` only through Float64. */
+/* The array variable (size_of: the structural parameter) with value reference `vr`, or NULL.  Every runtime value
+   reference is below `lowest`: a scalar costs one comparison. */
+static const BridgeArray *array_of(const Instance *inst, unsigned int vr) {
+    const BridgeArrays *a = inst->arrays;
+    if (!a || vr < a->lowest) return NULL;
+    for (size_t k = 0; k < a->n_arrays; k++)
+        if (a->arrays[k].vr == vr) return &a->arrays[k];
+    return NULL;
+}
+
+static const BridgeSize *size_of(const Instance *inst, unsigned int vr) {
+    const BridgeArrays *a = inst->arrays;
+    if (!a || vr < a->lowest) return NULL;
+    for (size_t k = 0; k < a->n_sizes; k++)
+        if (a->sizes[k].vr == vr) return &a->sizes[k];
+    return NULL;
+}
+
+static int has_views(const Instance *inst) { return inst->arrays && (inst->arrays->n_arrays || inst->arrays->n_sizes); }
+
+/* nValues is the number of the variables' values (FMI 3.0: a scalar 1, an array its elements); `time`, the arrays
+   (Float64) and the structural parameters (UInt64) only through their own type.  *arrays: an array is among them. */
 static int check_values(Instance *inst, Function f, BridgeValueType type, const fmi3ValueReference vr[], size_t nvr,
-                        const void *values, size_t nValues) {
+                        const void *values, size_t nValues, int *arrays) {
+    *arrays = 0;
     if (!vr || !values) return fail(inst, f, "valueReferences or values is NULL");
-    if (nValues != nvr) {
-        char why[200];
-        snprintf(why, sizeof why,
-                 "nValues: got %zu for %zu value references (this FMU has no array variables: one "
-                 "value per value reference)",
-                 nValues, nvr);
-        return fail(inst, f, why);
-    }
-    for (size_t i = 0; type != VALUE_REAL && i < nvr; i++)
-        if (vr[i] == TIME_VALUE_REFERENCE) {
-            char why[200];
+    const char *verb = f < F_SetFloat32 ? "Get" : "Set";
+    size_t expected = nvr;
+    for (size_t i = 0; (type != VALUE_REAL || has_views(inst)) && i < nvr; i++) {
+        char why[300];
+        const BridgeArray *a = array_of(inst, vr[i]);
+        const BridgeSize *s = a ? NULL : size_of(inst, vr[i]);
+        if (vr[i] == TIME_VALUE_REFERENCE && type != VALUE_REAL) {
             snprintf(why, sizeof why, "value reference %u is 'time', a Float64 variable; use fmi3%sFloat64",
-                     TIME_VALUE_REFERENCE, f < F_SetFloat32 ? "Get" : "Set");
+                     TIME_VALUE_REFERENCE, verb);
             return fail(inst, f, why);
         }
+        if (a && type != VALUE_REAL) {
+            snprintf(why, sizeof why, "value reference %u is '%s', a Float64 array; use fmi3%sFloat64", vr[i], a->name,
+                     verb);
+            return fail(inst, f, why);
+        }
+        if (s) {
+            snprintf(why, sizeof why, "value reference %u is '%s', a UInt64 structural parameter; use fmi3%sUInt64",
+                     vr[i], s->name, verb);
+            return fail(inst, f, why);
+        }
+        if (a) expected += a->size - 1, *arrays = 1;
+    }
+    if (nValues != expected) {
+        char why[300];
+        if (inst->arrays && inst->arrays->n_arrays)
+            snprintf(why, sizeof why,
+                     "nValues: got %zu for %zu value references (their variables hold %zu values: a scalar one, an "
+                     "array its elements)",
+                     nValues, nvr, expected);
+        else
+            snprintf(why, sizeof why,
+                     "nValues: got %zu for %zu value references (this FMU has no array variables: one "
+                     "value per value reference)",
+                     nValues, nvr);
+        return fail(inst, f, why);
+    }
     return BRIDGE_OK;
 }
 
@@ -554,17 +612,110 @@ static int get_with_time(Instance *inst, const fmi3ValueReference vr[], size_t n
     return status;
 }
 
+/* Float64 values of scalars: the runtime's, `time` from the clock. */
+static int get_scalars(Instance *inst, const fmi3ValueReference vr[], size_t nvr, double values[]) {
+    for (size_t i = 0; i < nvr; i++)
+        if (vr[i] == TIME_VALUE_REFERENCE) return get_with_time(inst, vr, nvr, values);
+    return inst->front.bridge->get_values(inst->front.slave, VALUE_REAL, vr, nvr, values);
+}
+
+/* An array's view, expanded: value reference i at values[at[i]] (scalars, and the elements that are runtime values;
+   constants are written at once).  n: the values (nValues, checked).  Returns the number of references. */
+static size_t expand(const Instance *inst, const fmi3ValueReference vr[], size_t nvr, unsigned int *refs, size_t *at,
+                     double *values) {
+    size_t m = 0, position = 0;
+    for (size_t i = 0; i < nvr; i++) {
+        const BridgeArray *a = array_of(inst, vr[i]);
+        if (!a) {
+            refs[m] = vr[i], at[m++] = position++;
+            continue;
+        }
+        for (size_t k = 0; k < a->size; k++, position++) {
+            if (a->element[k] < 0) {
+                if (values) values[position] = a->value[k];
+            } else {
+                refs[m] = (unsigned int)a->element[k], at[m++] = position;
+            }
+        }
+    }
+    return m;
+}
+
+/* fmi3GetFloat64 with arrays among the value references: their elements read with the scalars in one runtime call. */
+static int get_arrays(Instance *inst, const fmi3ValueReference vr[], size_t nvr, double values[], size_t n) {
+    unsigned int *refs = malloc(n * sizeof *refs);
+    size_t *at = malloc(n * sizeof *at);
+    double *got = malloc(n * sizeof *got);
+    int status = BRIDGE_OK;
+    if (!refs || !at || !got) {
+        status = fail(inst, F_GetFloat64, "out of memory");
+    } else {
+        size_t m = expand(inst, vr, nvr, refs, at, values);
+        status = m ? get_scalars(inst, refs, m, got) : BRIDGE_OK;
+        for (size_t j = 0; status <= BRIDGE_WARNING && j < m; j++) values[at[j]] = got[j];
+    }
+    free(refs), free(at), free(got);
+    return status;
+}
+
+/* fmi3SetFloat64 with arrays among the value references: only input arrays, each element set as its scalar; an input
+   given twice in one call (an array and its scalar, or two arrays) with two values is refused (which one should
+   hold?).  The runtime checks the values and names the scalar behind a refused element. */
+static int set_arrays(Instance *inst, const fmi3ValueReference vr[], size_t nvr, const double values[], size_t n) {
+    char why[400];
+    for (size_t i = 0; i < nvr; i++) {
+        const BridgeArray *a = array_of(inst, vr[i]);
+        if (a && !a->input) {
+            snprintf(why, sizeof why, "'%s' (value reference %u) is an output; outputs cannot be set", a->name, vr[i]);
+            return fail(inst, F_SetFloat64, why);
+        }
+    }
+    unsigned int *refs = malloc(n * sizeof *refs);
+    size_t *at = malloc(n * sizeof *at), *element = malloc(n * sizeof *element);
+    double *given = malloc(n * sizeof *given);
+    const BridgeArray **from = malloc(n * sizeof *from); /* per value: its array (NULL: a scalar) and element */
+    int status = BRIDGE_OK;
+    if (!refs || !at || !element || !given || !from) {
+        free(refs), free(at), free(element), free(given), free(from);
+        return fail(inst, F_SetFloat64, "out of memory");
+    }
+    size_t m = expand(inst, vr, nvr, refs, at, NULL), position = 0;
+    for (size_t i = 0; i < nvr; i++) {
+        const BridgeArray *a = array_of(inst, vr[i]);
+        for (size_t k = 0; k < (a ? a->size : 1); k++, position++) from[position] = a, element[position] = k;
+    }
+    for (size_t j = 0; j < m; j++) given[j] = values[at[j]];
+    for (size_t j = 0; status == BRIDGE_OK && j < m; j++) {
+        for (size_t q = 0; from[at[j]] && q < m; q++) {
+            if (q == j || refs[q] != refs[j] || given[q] == given[j]) continue;
+            char other[160];
+            if (from[at[q]])
+                snprintf(other, sizeof other, "element %zu of '%s'", element[at[q]], from[at[q]]->name);
+            else
+                snprintf(other, sizeof other, "value reference %u", refs[q]);
+            snprintf(why, sizeof why,
+                     "element %zu of '%s' (%.17g) and %s (%.17g) are one input (value reference %u), given two "
+                     "values in one call; set it through one of its views",
+                     element[at[j]], from[at[j]]->name, given[j], other, given[q], refs[j]);
+            status = fail(inst, F_SetFloat64, why);
+            break;
+        }
+    }
+    if (status == BRIDGE_OK) status = inst->front.bridge->set_values(inst->front.slave, VALUE_REAL, refs, m, given);
+    free(refs), free(at), free(element), free(given), free(from);
+    return status;
+}
+
 static fmi3Status get_values(fmi3Instance instance, Function f, BridgeValueType type, const fmi3ValueReference vr[],
                              size_t nvr, void *values, size_t nValues) {
     Instance *inst = enter(instance, f);
     if (!inst) return fmi3Error;
     if (nvr == 0) return leave(inst, fmi3OK);
-    int status = check_values(inst, f, type, vr, nvr, values, nValues);
+    int arrays, status = check_values(inst, f, type, vr, nvr, values, nValues, &arrays);
     if (status != BRIDGE_OK) return leave(inst, status);
     FrontInstance *front = &inst->front;
     if (type == VALUE_REAL) {
-        for (size_t i = 0; i < nvr; i++)
-            if (vr[i] == TIME_VALUE_REFERENCE) return leave(inst, get_with_time(inst, vr, nvr, values));
+        return leave(inst, arrays ? get_arrays(inst, vr, nvr, values, nValues) : get_scalars(inst, vr, nvr, values));
     } else if (type == VALUE_BOOLEAN) { /* the runtime's booleans are int */
         int *got = malloc(nvr * sizeof *got);
         if (!got) return leave(inst, fail(inst, f, "out of memory"));
@@ -582,7 +733,7 @@ static fmi3Status set_values(fmi3Instance instance, Function f, BridgeValueType 
     Instance *inst = enter(instance, f);
     if (!inst) return fmi3Error;
     if (nvr == 0) return leave(inst, fmi3OK);
-    int status = check_values(inst, f, type, vr, nvr, values, nValues);
+    int arrays, status = check_values(inst, f, type, vr, nvr, values, nValues, &arrays);
     if (status != BRIDGE_OK) return leave(inst, status);
     FrontInstance *front = &inst->front;
     for (size_t i = 0; type == VALUE_REAL && i < nvr; i++)
@@ -594,6 +745,7 @@ static fmi3Status set_values(fmi3Instance instance, Function f, BridgeValueType 
                      TIME_VALUE_REFERENCE);
             return leave(inst, fail(inst, f, why));
         }
+    if (arrays) return leave(inst, set_arrays(inst, vr, nvr, values, nValues));
     if (type == VALUE_BOOLEAN) { /* the runtime's booleans are int */
         int *given = malloc(nvr * sizeof *given);
         if (!given) return leave(inst, fail(inst, f, "out of memory"));
@@ -637,6 +789,70 @@ fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference valueRe
                          const fmi3String values[], size_t nValues) {
     return set_values(instance, F_SetString, VALUE_STRING, valueReferences, nValueReferences, (const void *)values,
                       nValues);
+}
+
+/* ---- FMI 3.0: structural parameters (UInt64, fixed at build: the arrays' sizes) ---------------- */
+
+/* Every value reference is a structural parameter's, one value each; else a refusal naming what it is. */
+static int check_sizes(Instance *inst, Function f, const fmi3ValueReference vr[], size_t nvr, const void *values,
+                       size_t nValues) {
+    if (!vr || !values) return fail(inst, f, "valueReferences or values is NULL");
+    char why[400];
+    if (nValues != nvr) {
+        snprintf(why, sizeof why, "nValues: got %zu for %zu value references (the UInt64 variables are scalars)",
+                 nValues, nvr);
+        return fail(inst, f, why);
+    }
+    const char *verb = f == F_GetUInt64 ? "Get" : "Set";
+    for (size_t i = 0; i < nvr; i++) {
+        if (size_of(inst, vr[i])) continue;
+        const BridgeArray *a = array_of(inst, vr[i]);
+        if (vr[i] == TIME_VALUE_REFERENCE || a) {
+            snprintf(why, sizeof why, "value reference %u is '%s', a Float64 %s; use fmi3%sFloat64", vr[i],
+                     a ? a->name : "time", a ? "array" : "variable", verb);
+            return fail(inst, f, why);
+        }
+        const BridgeArrays *all = inst->arrays;
+        size_t used
+            = (size_t)snprintf(why, sizeof why, "value reference %u is not a UInt64 variable (this FMU's: ", vr[i]);
+        for (size_t k = 0; all && k < all->n_sizes && used < sizeof why; k++)
+            used += (size_t)snprintf(why + used, sizeof why - used, "%s%u '%s'", k ? ", " : "", all->sizes[k].vr,
+                                     all->sizes[k].name);
+        if (used < sizeof why)
+            snprintf(why + used, sizeof why - used, "%s)", all && all->n_sizes ? "" : "none: no structural parameters");
+        return fail(inst, f, why);
+    }
+    return BRIDGE_OK;
+}
+
+fmi3Status fmi3GetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         fmi3UInt64 values[], size_t nValues) {
+    Instance *inst = enter(instance, F_GetUInt64);
+    if (!inst) return fmi3Error;
+    if (nValueReferences == 0) return leave(inst, fmi3OK);
+    int status = check_sizes(inst, F_GetUInt64, valueReferences, nValueReferences, values, nValues);
+    for (size_t i = 0; status == BRIDGE_OK && i < nValueReferences; i++)
+        values[i] = size_of(inst, valueReferences[i])->value;
+    return leave(inst, status);
+}
+
+/* Configuration Mode: a structural parameter takes its build value only (the model file, and the arrays, were made
+   for it); another value is refused naming the parameter, its value and how to get another (BridgeSize.fixed). */
+fmi3Status fmi3SetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
+                         const fmi3UInt64 values[], size_t nValues) {
+    Instance *inst = enter(instance, F_SetUInt64);
+    if (!inst) return fmi3Error;
+    if (nValueReferences == 0) return leave(inst, fmi3OK);
+    int status = check_sizes(inst, F_SetUInt64, valueReferences, nValueReferences, values, nValues);
+    for (size_t i = 0; status == BRIDGE_OK && i < nValueReferences; i++) {
+        const BridgeSize *s = size_of(inst, valueReferences[i]);
+        if (values[i] == s->value) continue;
+        char why[1200];
+        snprintf(why, sizeof why, "%s: got %llu, but this FMU was built with %s = %llu, %s", s->name,
+                 (unsigned long long)values[i], s->name, (unsigned long long)s->value, s->fixed);
+        status = fail(inst, F_SetUInt64, why);
+    }
+    return leave(inst, status);
 }
 
 /* ---- FMI 3.0: FMU state (front_common.c: the box, the serialised header and their checks) ------ */
@@ -754,11 +970,6 @@ fmi3Status fmi3GetInt64(fmi3Instance instance, const fmi3ValueReference valueRef
     (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
     return not_provided(instance, F_GetInt64);
 }
-fmi3Status fmi3GetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
-                         fmi3UInt64 values[], size_t nValues) {
-    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
-    return not_provided(instance, F_GetUInt64);
-}
 fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                          size_t valueSizes[], fmi3Binary values[], size_t nValues) {
     (void)valueReferences, (void)nValueReferences, (void)valueSizes, (void)values, (void)nValues;
@@ -804,11 +1015,6 @@ fmi3Status fmi3SetInt64(fmi3Instance instance, const fmi3ValueReference valueRef
     (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
     return not_provided(instance, F_SetInt64);
 }
-fmi3Status fmi3SetUInt64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
-                         const fmi3UInt64 values[], size_t nValues) {
-    (void)valueReferences, (void)nValueReferences, (void)values, (void)nValues;
-    return not_provided(instance, F_SetUInt64);
-}
 fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                          const size_t valueSizes[], const fmi3Binary values[], size_t nValues) {
     (void)valueReferences, (void)nValueReferences, (void)valueSizes, (void)values, (void)nValues;
@@ -834,22 +1040,84 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance instance, fmi3ValueReference
     return not_provided(instance, F_GetVariableDependencies);
 }
 
+/* Directional derivatives with arrays among the knowns or unknowns: each expanded into its elements (an array's seed
+   and sensitivity are its elements'); a constant element's sensitivity is 0, a constant is no known. */
+static int directional_arrays(Instance *inst, const fmi3ValueReference unknowns[], size_t nUnknowns,
+                              const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[], size_t nSeed,
+                              fmi3Float64 sensitivity[], size_t nSensitivity) {
+    unsigned int *known = malloc((nSeed + 1) * sizeof *known), *unknown = malloc((nSensitivity + 1) * sizeof *unknown);
+    double *given = malloc((nSeed + 1) * sizeof *given), *got = malloc((nSensitivity + 1) * sizeof *got);
+    size_t *at = malloc((nSensitivity + 1) * sizeof *at), *known_at = malloc((nSeed + 1) * sizeof *known_at);
+    int status = BRIDGE_OK;
+    if (!known || !unknown || !given || !got || !at || !known_at) {
+        status = fail(inst, F_GetDirectionalDerivative, "out of memory");
+    } else {
+        size_t mk = expand(inst, knowns, nKnowns, known, known_at, NULL);
+        if (mk < nSeed) { /* a constant among the knowns */
+            for (size_t j = 0; j < nKnowns; j++) {
+                const BridgeArray *a = array_of(inst, knowns[j]);
+                for (size_t k = 0; a && k < a->size; k++)
+                    if (a->element[k] < 0) {
+                        char why[300];
+                        snprintf(why, sizeof why,
+                                 "known value reference %u ('%s') is an array of constants, not an input or a "
+                                 "continuous state",
+                                 knowns[j], a->name);
+                        status = fail(inst, F_GetDirectionalDerivative, why);
+                        break;
+                    }
+                if (status != BRIDGE_OK) break;
+            }
+        }
+        for (size_t j = 0; j < mk; j++) given[j] = seed[known_at[j]];
+        size_t mu = expand(inst, unknowns, nUnknowns, unknown, at, NULL);
+        for (size_t i = 0; i < nSensitivity; i++) sensitivity[i] = 0.0; /* the constants' */
+        if (status == BRIDGE_OK) {
+            FrontInstance *front = &inst->front;
+            status = front->bridge->directional(front->slave, CALLS[F_GetDirectionalDerivative].name, unknown, mu,
+                                                known, mk, given, got);
+        }
+        for (size_t i = 0; status <= BRIDGE_WARNING && i < mu; i++) sensitivity[at[i]] = got[i];
+    }
+    free(known), free(unknown), free(given), free(got), free(at), free(known_at);
+    return status;
+}
+
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance instance, const fmi3ValueReference unknowns[], size_t nUnknowns,
                                         const fmi3ValueReference knowns[], size_t nKnowns, const fmi3Float64 seed[],
                                         size_t nSeed, fmi3Float64 sensitivity[], size_t nSensitivity) {
     Instance *inst = enter(instance, F_GetDirectionalDerivative);
     if (!inst) return fmi3Error;
-    if (nSeed != nKnowns || nSensitivity != nUnknowns) {
-        char why[240];
-        snprintf(why, sizeof why,
-                 "nSeed, nSensitivity: got %zu and %zu for %zu knowns and %zu unknowns (the variables are scalars: "
-                 "one value each)",
-                 nSeed, nSensitivity, nKnowns, nUnknowns);
+    size_t n_seed = nKnowns, n_sensitivity = nUnknowns;              /* the values of the knowns and unknowns */
+    int arrays = inst->arrays && inst->arrays->n_arrays, viewed = 0; /* viewed: an array among them */
+    for (size_t j = 0; arrays && knowns && j < nKnowns; j++) {
+        const BridgeArray *a = array_of(inst, knowns[j]);
+        if (a) n_seed += a->size - 1, viewed = 1;
+    }
+    for (size_t i = 0; arrays && unknowns && i < nUnknowns; i++) {
+        const BridgeArray *a = array_of(inst, unknowns[i]);
+        if (a) n_sensitivity += a->size - 1, viewed = 1;
+    }
+    if (nSeed != n_seed || nSensitivity != n_sensitivity) {
+        char why[300];
+        if (arrays)
+            snprintf(why, sizeof why,
+                     "nSeed, nSensitivity: got %zu and %zu for knowns and unknowns of %zu and %zu values (a scalar "
+                     "one, an array its elements)",
+                     nSeed, nSensitivity, n_seed, n_sensitivity);
+        else
+            snprintf(why, sizeof why,
+                     "nSeed, nSensitivity: got %zu and %zu for %zu knowns and %zu unknowns (the variables are "
+                     "scalars: one value each)",
+                     nSeed, nSensitivity, nKnowns, nUnknowns);
         return leave(inst, fail(inst, F_GetDirectionalDerivative, why));
     }
     if (nUnknowns == 0) return leave(inst, fmi3OK);
     if (!unknowns || !sensitivity || (nKnowns > 0 && (!knowns || !seed)))
         return leave(inst, fail(inst, F_GetDirectionalDerivative, "a value-reference or value array is NULL"));
+    if (viewed)
+        return leave(inst, directional_arrays(inst, unknowns, nUnknowns, knowns, nKnowns, seed, nSeed, sensitivity,
+                                              nSensitivity));
     FrontInstance *front = &inst->front;
     return leave(inst, front->bridge->directional(front->slave, CALLS[F_GetDirectionalDerivative].name, unknowns,
                                                   nUnknowns, knowns, nKnowns, seed, sensitivity));
@@ -862,10 +1130,23 @@ fmi3Status fmi3GetAdjointDerivative(fmi3Instance instance, const fmi3ValueRefere
     return not_provided(instance, F_GetAdjointDerivative);
 }
 
+/* Configuration Mode sets structural parameters: an FMU without them has nothing to configure. */
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance instance) {
-    return not_provided(instance, F_EnterConfigurationMode);
+    Instance *inst = enter(instance, F_EnterConfigurationMode);
+    if (!inst) return fmi3Error;
+    if (!inst->arrays || !inst->arrays->n_sizes)
+        return leave(inst, fail(inst, F_EnterConfigurationMode,
+                                "this FMU has no structural parameters (no array variables): nothing to configure"));
+    inst->front.state = ConfigurationMode;
+    return leave(inst, fmi3OK);
 }
-fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) { return not_provided(instance, F_ExitConfigurationMode); }
+
+fmi3Status fmi3ExitConfigurationMode(fmi3Instance instance) {
+    Instance *inst = enter(instance, F_ExitConfigurationMode);
+    if (!inst) return fmi3Error;
+    inst->front.state = Instantiated;
+    return leave(inst, fmi3OK);
+}
 
 fmi3Status fmi3GetIntervalDecimal(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                                   size_t nValueReferences, fmi3Float64 intervals[],

@@ -406,6 +406,9 @@ typedef struct {
     double divergence_limit;
     char *const *messages;
     const double *nominals; /* per continuous state: its typical size (the model file's state.nominal), or NULL: 1 */
+    BridgeArrays arrays;    /* FMI 3.0 array variables and structural parameters (the model file's fmi3.*) */
+    BridgeArray *array_list;
+    BridgeSize *size_list;
 } Model;
 
 /* What an FMU state holds; also the instance's own current values.  valid[i]:
@@ -433,7 +436,7 @@ typedef struct {
     const char **param_texts; /* and the String ones' values */
     double *scratch_x, *scratch_y;
     unsigned char *scratch_which; /* per output: asked of the kind, then written by it */
-    int me;                      /* model exchange: the host integrates x; inputs hold as they are set */
+    int me;                       /* model exchange: the host integrates x; inputs hold as they are set */
     double *scratch_dx, *scratch_du, *scratch_dy, *scratch_ddx, *scratch_in;
     double *state_held; /* the inputs the current state's step held (at initialisation: those held then; after a
                              restore: the state's); a refused step leaves it (NativeKind.step_held) */
@@ -451,9 +454,104 @@ static void free_model(Model *m) {
     free(m->input_vr);
     free(m->output_vr);
     free(m->deferred);
+    free(m->array_list);
+    free(m->size_list);
     free(m->resources);
     free_file(m->file);
     memset(m, 0, sizeof *m);
+}
+
+/* FMI 3.0 array variables and structural parameters (optional: none when absent; flexfmu.fmi.fmi3_arrays writes
+   them): each array a view of the runtime's own Real values (a variable, continuous state or state derivative) or of
+   constants, its value reference above all of the runtime's and below INT32_MAX (the FMI 3.0 front's `time`). */
+static int load_arrays(Model *m, char *why, size_t why_size) {
+    NativeFile *f = m->file;
+    m->arrays.lowest = UINT32_MAX;
+    const unsigned int own = (unsigned int)(m->n_vars + 2 * (m->kind->derivatives ? m->nx : 0));
+    const NativeEntry *names_entry = native_entry(f, "fmi3.array.name"),
+                      *sizes_entry = native_entry(f, "fmi3.size.name");
+    long na = names_entry ? (long)names_entry->count : 0, ns = sizes_entry ? (long)sizes_entry->count : 0;
+    char *const *names = NULL, *const *size_names = NULL, *const *fixed = NULL;
+    const int32_t *reference = NULL, *size = NULL, *input = NULL, *element = NULL, *size_reference = NULL,
+                  *size_value = NULL;
+    const double *value = NULL;
+    uint32_t total[NATIVE_MAX_DIMS] = {0};
+    if (na
+        && (!(names = file_strings(f, "fmi3.array.name", na, why, why_size))
+            || native_i32(f, "fmi3.array.reference", 1, &na, &reference, NULL, why, why_size) < 0
+            || native_i32(f, "fmi3.array.size", 1, &na, &size, NULL, why, why_size) < 0
+            || native_i32(f, "fmi3.array.input", 1, &na, &input, NULL, why, why_size) < 0
+            || native_i32(f, "fmi3.array.element", 1, NULL, &element, total, why, why_size) < 0))
+        return -1;
+    long n_elements = (long)total[0];
+    if (na && native_f64(f, "fmi3.array.value", 1, &n_elements, &value, NULL, why, why_size) < 0) return -1;
+    if (ns
+        && (!(size_names = file_strings(f, "fmi3.size.name", ns, why, why_size))
+            || !(fixed = file_strings(f, "fmi3.size.fixed", ns, why, why_size))
+            || native_i32(f, "fmi3.size.reference", 1, &ns, &size_reference, NULL, why, why_size) < 0
+            || native_i32(f, "fmi3.size.value", 1, &ns, &size_value, NULL, why, why_size) < 0))
+        return -1;
+    if (!(m->array_list = calloc((size_t)na + 1, sizeof *m->array_list))
+        || !(m->size_list = calloc((size_t)ns + 1, sizeof *m->size_list))) {
+        snprintf(why, why_size, "out of memory");
+        return -1;
+    }
+    long at = 0;
+    for (long k = 0; k < na + ns; k++) { /* the references: in the block of their own, each once */
+        int32_t vr = k < na ? reference[k] : size_reference[k - na];
+        const char *name = k < na ? names[k] : size_names[k - na];
+        if (vr < 0 || (unsigned int)vr < own || vr == INT32_MAX) {
+            snprintf(why, why_size,
+                     "model file: FMI 3.0 variable %s has value reference %d (allowed: %u .. %d, above the "
+                     "runtime's own)",
+                     name, (int)vr, own, INT32_MAX - 1);
+            return -1;
+        }
+        for (long j = 0; j < k; j++)
+            if ((j < na ? reference[j] : size_reference[j - na]) == vr) {
+                snprintf(why, why_size, "model file: FMI 3.0 variables %s and %s have one value reference %d",
+                         j < na ? names[j] : size_names[j - na], name, (int)vr);
+                return -1;
+            }
+        if ((unsigned int)vr < m->arrays.lowest) m->arrays.lowest = (unsigned int)vr;
+    }
+    for (long k = 0; k < na; k++) {
+        if (size[k] < 1 || size[k] > n_elements - at) {
+            snprintf(why, why_size, "model file: FMI 3.0 array %s has a bad size %d", names[k], (int)size[k]);
+            return -1;
+        }
+        for (long e = at; e < at + size[k]; e++) {
+            int32_t vr = element[e];
+            int readable
+                = vr == -1 ? isfinite(value[e])
+                           : vr >= 0 && (unsigned int)vr < own && ((size_t)vr >= m->n_vars || m->vars[vr].type == REAL);
+            if (!readable || (input[k] && (vr < 0 || (size_t)vr >= m->n_vars || m->vars[vr].causality != INPUT))) {
+                snprintf(why, why_size, "model file: element %ld of FMI 3.0 array %s is %d (allowed: %s)", e - at,
+                         names[k], (int)vr,
+                         input[k] ? "a Real input's value reference"
+                                  : "-1 (a finite constant) or a Real value's value reference");
+                return -1;
+            }
+        }
+        m->array_list[k] = (BridgeArray){
+            (unsigned int)reference[k], names[k], (size_t)size[k], element + at, value + at, input[k] != 0};
+        at += size[k];
+    }
+    if (at != n_elements) {
+        snprintf(why, why_size, "model file: fmi3.array.element has %ld elements, the arrays %ld", n_elements, at);
+        return -1;
+    }
+    for (long k = 0; k < ns; k++) {
+        if (size_value[k] < 0) {
+            snprintf(why, why_size, "model file: FMI 3.0 structural parameter %s is %d (allowed: >= 0)", size_names[k],
+                     (int)size_value[k]);
+            return -1;
+        }
+        m->size_list[k]
+            = (BridgeSize){(unsigned int)size_reference[k], size_names[k], (uint64_t)size_value[k], fixed[k]};
+    }
+    m->arrays = (BridgeArrays){(size_t)na, (size_t)ns, m->array_list, m->size_list, m->arrays.lowest};
+    return 0;
 }
 
 static int load_model(Model *m, const char *resources, const char *guid, char *why, size_t why_size) {
@@ -598,7 +696,7 @@ static int load_model(Model *m, const char *resources, const char *guid, char *w
                 return -1;
             }
     }
-    return 0;
+    return load_arrays(m, why, why_size);
 memory:
     snprintf(why, why_size, "out of memory");
     return -1;
@@ -1050,10 +1148,14 @@ static int compute_derivatives(Slave *s, const char *function, double *dx) {
         const char *name, *allowed;
         double value;
         if (culprit_of(s, s->m.kind->culprit(s->sim, 1, s->now.x, s->now.held, 1e300), &name, &value, &allowed))
-            return refuse(s, BRIDGE_ERROR, "%s: %s: %.6g makes the derivatives overflow (not finite) at t = %s s; "
-                          "allowed: %s", function, name, value, t, allowed);
-        return refuse(s, BRIDGE_ERROR, "%s: the derivatives are not finite at t = %s s (the states or inputs drive "
-                      "the model beyond its range)", function, t);
+            return refuse(s, BRIDGE_ERROR,
+                          "%s: %s: %.6g makes the derivatives overflow (not finite) at t = %s s; "
+                          "allowed: %s",
+                          function, name, value, t, allowed);
+        return refuse(s, BRIDGE_ERROR,
+                      "%s: the derivatives are not finite at t = %s s (the states or inputs drive "
+                      "the model beyond its range)",
+                      function, t);
     }
     if (status != BRIDGE_OK) return refuse(s, status, "%s: %s", function, r.message);
     return BRIDGE_OK;
@@ -1533,8 +1635,10 @@ static int nominals(void *slave, double *x, size_t nx) {
     Slave *s = slave;
     size_t n = states_of(s);
     if (nx != n)
-        return refuse(s, BRIDGE_ERROR, "fmi2GetNominalsOfContinuousStates: nx: got %zu (allowed: this model's %zu "
-                      "continuous states)", nx, n);
+        return refuse(s, BRIDGE_ERROR,
+                      "fmi2GetNominalsOfContinuousStates: nx: got %zu (allowed: this model's %zu "
+                      "continuous states)",
+                      nx, n);
     for (size_t i = 0; i < n; i++) x[i] = s->m.nominals ? s->m.nominals[i] : 1.0;
     return BRIDGE_OK;
 }
@@ -1554,8 +1658,7 @@ static int set_time(void *slave, const char *function, double time) {
 static int continuous_states(void *slave, const char *function, int set, double *x, size_t nx) {
     Slave *s = slave;
     size_t n = states_of(s);
-    if (nx != n)
-        return refuse(s, BRIDGE_ERROR, "%s: got %zu states (allowed: this model's %zu)", function, nx, n);
+    if (nx != n) return refuse(s, BRIDGE_ERROR, "%s: got %zu states (allowed: this model's %zu)", function, nx, n);
     if (!set) {
         memcpy(x, s->now.x, n * sizeof *x);
         return BRIDGE_OK;
@@ -1577,8 +1680,7 @@ static int continuous_states(void *slave, const char *function, int set, double 
 static int derivatives(void *slave, const char *function, double *dx, size_t nx) {
     Slave *s = slave;
     size_t n = states_of(s);
-    if (nx != n)
-        return refuse(s, BRIDGE_ERROR, "%s: got %zu derivatives (allowed: this model's %zu)", function, nx, n);
+    if (nx != n) return refuse(s, BRIDGE_ERROR, "%s: got %zu derivatives (allowed: this model's %zu)", function, nx, n);
     if (need_model(s, function) != BRIDGE_OK) return BRIDGE_ERROR;
     return compute_derivatives(s, function, dx);
 }
@@ -1610,9 +1712,9 @@ static int directional(void *slave, const char *function, const unsigned int *un
                           vr < m->n_vars ? "')" : "", states_of(s) ? " and the continuous states" : "");
         }
     }
-    for (size_t i = 0; i < n_unknown; i++) {
+    for (size_t i = 0; i < n_unknown; i++) { /* a state: the FMI 3.0 arrays of the states (modal_coordinates) */
         unsigned int vr = unknown[i];
-        if (state_reference(s, vr) != 2 && !(vr < m->n_vars && m->vars[vr].causality == OUTPUT))
+        if (!state_reference(s, vr) && !(vr < m->n_vars && m->vars[vr].causality == OUTPUT))
             return refuse(s, BRIDGE_ERROR,
                           "%s: unknown value reference %u%s%s%s is not an output or a state derivative (allowed: "
                           "the outputs%s)",
@@ -1624,18 +1726,25 @@ static int directional(void *slave, const char *function, const unsigned int *un
     double *in = s->scratch_in;
     for (size_t j = 0; j < m->layout.n_inputs; j++) in[j] = s->now.values[m->input_vr[j]];
     NativeResult r = new_result(s);
-    int status = m->kind->directional(s->sim, s->now.x, in, dx, du, s->scratch_dy, states_of(s) ? s->scratch_ddx : NULL,
-                                      &r);
+    int status
+        = m->kind->directional(s->sim, s->now.x, in, dx, du, s->scratch_dy, states_of(s) ? s->scratch_ddx : NULL, &r);
     if (status == NATIVE_NOT_FINITE)
-        return refuse(s, BRIDGE_ERROR, "%s: the derivatives are not finite (the state or inputs are beyond the "
-                      "model's range)", function);
+        return refuse(s, BRIDGE_ERROR,
+                      "%s: the derivatives are not finite (the state or inputs are beyond the "
+                      "model's range)",
+                      function);
     if (status != BRIDGE_OK) return refuse(s, status, "%s: %s", function, r.message);
-    for (size_t i = 0; i < n_unknown; i++) {
+    for (size_t i = 0; i < n_unknown; i++) { /* d x_k along the seed is the seed's x_k */
         unsigned int vr = unknown[i];
-        sensitivity[i] = vr >= m->n_vars ? s->scratch_ddx[vr - m->n_vars - m->nx] : s->scratch_dy[m->vars[vr].index];
+        int extra = state_reference(s, vr);
+        sensitivity[i] = extra == 1   ? dx[vr - m->n_vars]
+                         : extra == 2 ? s->scratch_ddx[vr - m->n_vars - m->nx]
+                                      : s->scratch_dy[m->vars[vr].index];
     }
     return BRIDGE_OK;
 }
+
+static const BridgeArrays *arrays(void *slave) { return &((Slave *)slave)->m.arrays; }
 
 static const BridgeApi API = {
     FLEXFMU_BRIDGE_VERSION,
@@ -1660,6 +1769,7 @@ static const BridgeApi API = {
     derivatives,
     directional,
     nominals,
+    arrays,
 };
 
 /* The front's load_bridge (compiled with FLEXFMU_NATIVE) takes the API from here: nothing is loaded. */
