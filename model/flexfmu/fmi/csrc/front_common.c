@@ -497,8 +497,10 @@ int front_free_state(FrontInstance *inst, const char *function, void **state) {
     if (*(const uint32_t *)(const void *)state == STATE_MAGIC && box_of_instance(inst, (void *)state, &why)) {
         StateBox *given = (StateBox *)(void *)state;
         char text[200];
-        snprintf(text, sizeof text, "%s: got the FMU state itself, not its address (FMUstate is a pointer to the "
-                 "state); it is freed", function);
+        snprintf(text, sizeof text,
+                 "%s: got the FMU state itself, not its address (FMUstate is a pointer to the "
+                 "state); it is freed",
+                 function);
         front_emit(inst, BRIDGE_WARNING, "logStatusWarning", text);
         inst->bridge->free_state(given->python);
         given->magic = 0;
