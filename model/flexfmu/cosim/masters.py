@@ -36,7 +36,8 @@ import numpy as np
 from flexfmu.core.progress import progress_bar
 from flexfmu.cosim.checks import (MAX_RESULT_BYTES, CheckedSystem, check_result_memory, check_system, n_steps,
                                   resolve_connections)
-from flexfmu.cosim.coupling import COUPLING_SCHEMES, INTERFACE_JACOBIAN, InterfaceCoupling, check_interface_jacobians
+from flexfmu.cosim.coupling import (COUPLING_SCHEMES, INTERFACE_JACOBIAN, STEP_JACOBIAN, InterfaceCoupling,
+                                    check_interface_jacobians)
 from flexfmu.cosim.engines import run_ecos, run_libcosim
 from flexfmu.cosim.results import CosimResult
 from flexfmu.cosim.slaves import LIBRARY_MODULES, FmuSlave, Interface, LibrarySlave, interface
@@ -163,6 +164,8 @@ class Master:
             for name in self.order:
                 self.slaves[name].do_step(t, h)
             self.couple(t + h)
+        elif scheme == STEP_JACOBIAN:       # implicit in the held inputs, which it leaves set for the next step
+            self.coupling.step(self.slaves, t, h)
         elif scheme == "jacobi":
             for name in self.order:
                 self.slaves[name].do_step(t, h)

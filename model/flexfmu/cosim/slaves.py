@@ -7,6 +7,7 @@ that names where the system file declares it (SimulatorSpec.origin, .value_origi
 """
 from __future__ import annotations
 
+import copy
 import ctypes
 import importlib
 import math
@@ -174,6 +175,18 @@ class LibrarySlave:
             self.sim.set_inputs(**held)
         return D
 
+    # the step-Jacobian scheme's rollback (flexfmu.cosim.coupling.InterfaceCoupling.step)
+    def snapshot(self):
+        return copy.deepcopy(self.sim.get_state()), dict(self.values)
+
+    def restore(self, snapshot):
+        state, values = snapshot
+        self.sim.set_state(copy.deepcopy(state))
+        self.values = dict(values)
+
+    def discard(self, snapshot):
+        pass
+
     def _outputs_with(self, name: str, value: float) -> np.ndarray:
         """The outputs with the input ``name`` at ``value`` (the others as they are)."""
         self.sim.set_inputs(**{name: value})
@@ -271,6 +284,16 @@ class FmuSlave:
             D[:, j] = self._call("fmi2GetDirectionalDerivative", self.fmu.getDirectionalDerivative, unknown, [vr],
                                  [1.0])
         return D
+
+    # the step-Jacobian scheme's rollback (flexfmu.cosim.coupling.InterfaceCoupling.step): FMU states
+    def snapshot(self):
+        return self._call("fmi2GetFMUstate", self.fmu.getFMUstate)
+
+    def restore(self, snapshot):
+        self._call("fmi2SetFMUstate", self.fmu.setFMUstate, snapshot)
+
+    def discard(self, snapshot):
+        self._call("fmi2FreeFMUstate", self.fmu.freeFMUstate, snapshot)
 
     def free(self):
         try:
