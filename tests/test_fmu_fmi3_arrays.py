@@ -425,3 +425,22 @@ def test_fmusim_runs_the_fmus_with_arrays(fmus, tmp_path):
     assert done.returncode != 0 and "n_retained_modes: got 5" in done.stdout + done.stderr
     done, out = run("--interface-type", "cs", fmu=fmus["ReframeBody"])
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_cli_builds_arrays_on_request_only(tmp_path):
+    import subprocess
+    import sys
+
+    def flexfmu(*args):
+        return subprocess.run([sys.executable, "-m", "flexfmu", *map(str, args)], capture_output=True, text=True,
+                              timeout=600)
+    built = flexfmu("build", "--runtime", "native", "--fmi-version", "3", "--fmi3-arrays", "--set", "n_modes=4",
+                    "--out", tmp_path)
+    assert built.returncode == 0, built.stderr
+    from fmpy import read_model_description
+    arrays = {v.name for v in read_model_description(str(tmp_path / "FFRBeam.fmu")).modelVariables if v.dimensions}
+    assert {"F", "reaction_F", "modal_coordinates", "natural_frequencies"} <= arrays
+    for args in (("build", "--fmi3-arrays", "--out", tmp_path),
+                 ("build", "--runtime", "native", "--fmi3-arrays", "--out", tmp_path)):
+        run = flexfmu(*args)
+        assert run.returncode == 2 and "fmi3-arrays: needs --runtime native --fmi-version 3" in run.stderr, run.stderr

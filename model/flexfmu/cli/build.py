@@ -22,6 +22,22 @@ def add_interface_type(parser, *flags: str) -> None:
                              "co-simulation only: docs/fmu.md, 'Model exchange and directional derivatives')")
 
 
+def add_arrays(parser) -> None:
+    """--fmi3-arrays on ``parser`` (flexfmu build and export)."""
+    parser.add_argument("--fmi3-arrays", action="store_true",
+                        help="with --runtime native --fmi-version 3: Float64 array views beside the scalar variables "
+                             "(3-vectors, modal coordinates, natural frequencies sized by the structural parameter "
+                             "n_retained_modes; docs/fmu.md, 'Array variables'). Off by default: fmpy 0.3's "
+                             "simulate_fmu feeds an input table column per input and cannot drive an array input")
+
+
+def check_arrays(args: argparse.Namespace) -> None:
+    """Array views are the native runtime's FMI 3.0 FMUs': refused otherwise before any work."""
+    if args.fmi3_arrays and (args.runtime != "native" or args.fmi_version != 3):
+        raise ParameterError("fmi3-arrays", "needs --runtime native --fmi-version 3 (FMI 2.0 has no arrays; the Python "
+                             "runtime's FMUs have none)", "--runtime native --fmi-version 3 --fmi3-arrays")
+
+
 def check_interface_type(args: argparse.Namespace, option: str) -> None:
     """Model exchange is the native runtime's: refused for the Python runtime before any work."""
     if args.interface_type != "cs" and args.runtime != "native":
@@ -46,10 +62,12 @@ def _build(args: argparse.Namespace) -> int:
     native one native FMU (flexfmu.fmi.native) of the registry entry --fmu with its parameters from --set."""
     out = args.out if args.out else Path("dist")
     check_interface_type(args, "--interface")
+    check_arrays(args)
     if args.runtime == "native":
         from flexfmu.fmi.native import build_registry_fmu
         target = build_registry_fmu(args.fmu or "FFRBeam", _settings(args.set), out=out, model_name=args.name,
-                                    fmi_version=args.fmi_version, interface=args.interface_type)
+                                    fmi_version=args.fmi_version, interface=args.interface_type,
+                                    arrays=args.fmi3_arrays)
         version = ", FMI 3.0" if args.fmi_version == 3 else ""
         kinds = {"cs": "", "me": ", model exchange", "both": ", co-simulation and model exchange"}[args.interface_type]
         print(f"built {target} (native runtime{version}{kinds}; fmpy validate: no problems)")
@@ -81,4 +99,5 @@ def add_parser(sub) -> None:
                        help="native: the model identifier and file stem (default: the FMU's name)")
     add_fmi_version(build)
     add_interface_type(build, "--interface", "--interface-type")
+    add_arrays(build)
     build.set_defaults(func=_build)

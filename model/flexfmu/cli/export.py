@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from flexfmu.cli.build import add_fmi_version, add_interface_type, check_interface_type
+from flexfmu.cli.build import add_arrays, add_fmi_version, add_interface_type, check_arrays, check_interface_type
 from flexfmu.cli.model_file import add_model_options, load_user_model
 from flexfmu.errors import ParameterError
 
@@ -18,6 +18,7 @@ def _export(args: argparse.Namespace) -> int:
 
     check_target(args.output)                 # before the work: a bad name is known now
     check_interface_type(args, "--interface-type")
+    check_arrays(args)
 
     if args.modes is not None and (args.f_max is not None or args.tolerance is not None):
         raise ParameterError("modes", "given with --f-max/--tolerance", "either --modes N, or --f-max HZ "
@@ -38,7 +39,7 @@ def _export(args: argparse.Namespace) -> int:
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
     target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version,
-                        interface=args.interface_type)
+                        interface=args.interface_type, arrays=args.fmi3_arrays)
     version = "FMI 3.0" if args.fmi_version == 3 else ""
     kinds = {"cs": "", "me": "model exchange", "both": "co-simulation and model exchange"}[args.interface_type]
     notes = ", ".join(note for note in ("native runtime" if args.runtime == "native" else "", version, kinds) if note)
@@ -80,4 +81,5 @@ def add_parser(sub) -> None:
                              "'Native runtime')")
     add_fmi_version(export)
     add_interface_type(export, "--interface-type")
+    add_arrays(export)
     export.set_defaults(func=_export)

@@ -19,17 +19,20 @@ from flexfmu.fmi.body_fmu import (BODY_FILE, ExportedSpec, check_model_identifie
 
 
 def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python",
-               fmi_version: int = 2, interface: str = "cs") -> Path:
+               fmi_version: int = 2, interface: str = "cs", arrays: bool = False) -> Path:
     """Build the FMU of ``body`` (flexfmu.body.FlexBody) at ``target`` (``NAME.fmu``; NAME becomes the
     modelIdentifier); ``runtime`` "native": a C-only FMU (flexfmu.fmi.native, which does not import this module);
     ``fmi_version`` 3: FMI 3.0 co-simulation (either runtime)."""
     if runtime == "native":
         from flexfmu.fmi.native import export_native
-        return export_native(body, target, description=description, fmi_version=fmi_version, interface=interface)
+        return export_native(body, target, description=description, fmi_version=fmi_version, interface=interface,
+                             arrays=arrays)
     if runtime != "python":
         raise ParameterError("runtime", f"got {runtime!r}", "python | native")
     if fmi_version not in (2, 3):
         raise ParameterError("fmi_version", f"got {fmi_version!r}", "2 or 3")
+    if arrays:
+        raise ParameterError("arrays", "the Python runtime's FMUs have no array variables", "runtime native")
     if interface != "cs":
         raise ParameterError("interface", f"{interface!r}: the Python runtime's FMUs are co-simulation only",
                              "cs, or runtime native (model exchange for clamped bodies)")

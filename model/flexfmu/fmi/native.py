@@ -185,13 +185,15 @@ def _cli_text(value) -> str:
 
 
 def build_registry_fmu(name: str = "FFRBeam", settings: dict | None = None, *, out=None, target=None,
-                       model_name: str | None = None, fmi_version: int = 2, interface: str = "cs") -> Path:
+                       model_name: str | None = None, fmi_version: int = 2, interface: str = "cs",
+                       arrays: bool = False) -> Path:
     """``flexfmu build --runtime native``: the native FMU of the registry entry ``name`` into ``target`` (default
-    ``out``/<model name>.fmu); ``fmi_version`` 2 or 3; ``interface`` cs, me or both (flexfmu.fmi.interfaces)."""
+    ``out``/<model name>.fmu); ``fmi_version`` 2 or 3; ``interface`` cs, me or both (flexfmu.fmi.interfaces);
+    ``arrays`` (FMI 3.0): the Float64 array views beside the scalars (flexfmu.fmi.fmi3_arrays)."""
     source = registry_source(name, settings, model_name=model_name)
     if target is None:
         target = Path(out or "dist") / f"{source.name}.fmu"
-    return build_native_fmu(source, target, fmi_version=fmi_version, interface=interface)
+    return build_native_fmu(source, target, fmi_version=fmi_version, interface=interface, arrays=arrays)
 
 
 # ---------------------------------------------------------------------------------------------- exported bodies
@@ -308,10 +310,10 @@ _BODY_SOURCES = {"lti": _clamped_body_source, "reframe": _free_body_source}
 
 
 def export_native(body, target, *, description: str | None = None, scheme: str = "exponential",
-                  fmi_version: int = 2, interface: str = "cs") -> Path:
+                  fmi_version: int = 2, interface: str = "cs", arrays: bool = False) -> Path:
     """``flexfmu export ... --runtime native``: the native FMU of a clamped or free body at ``target`` (NAME.fmu);
     ``scheme``: a free body's, fixed at build; ``fmi_version`` 2 or 3 (FMI 3.0 co-simulation)."""
     from flexfmu.fmi.body_fmu import check_target
     name = check_target(target)
     return build_native_fmu(body_source(body, name, description, scheme=scheme), target, fmi_version=fmi_version,
-                            interface=interface)
+                            interface=interface, arrays=arrays)
