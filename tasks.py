@@ -173,7 +173,7 @@ def main() -> int:
                      # exchange, linux64/win64/aarch64 binaries (docs/fmu.md), and the FMI cross-check packages
                      ["-m", "flexfmu", "build", "--runtime", "native", "--interface", "both", "--out", "dist/native"],
                      ["-m", "flexfmu", "build", "--runtime", "native", "--interface", "both", "--fmi-version", "3",
-                      "--out", "dist/native/fmi3"],
+                      "--fmi3-arrays", "--out", "dist/native/fmi3"],
                      ["-m", "flexfmu", "cross-check", "dist/cross-check", "--interface", "cs", "me"],
                      # a user's mesh as an FMU, run in the wave-converter system (docs/export.md)
                      ["-m", "flexfmu", "export", "examples/bracket/bracket.json", "-o", "dist/Bracket.fmu",
