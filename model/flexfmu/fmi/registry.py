@@ -89,6 +89,9 @@ FMUS: tuple[FmuSpec, ...] = (
     FmuSpec("PTO", "flexfmu.wec.pto", "PTOConfig", "PTOSimulator",
             "Linear damper/generator between a harvester point and its platform; harvested power", _WEC,
             role="flexfmu.wec.pto"),
+    FmuSpec("Mooring", "flexfmu.wec.mooring", "MooringConfig", "MooringSimulator",
+            "Three slack catenary mooring lines of a floating body (MoorDyn): their force, moment and fairlead "
+            "tensions", _WEC, role="flexfmu.wec.mooring"),
 )
 BY_NAME = {spec.name: spec for spec in FMUS}
 
