@@ -12,7 +12,7 @@
     flexfmu reframe MODEL [--scheme consistent|exponential|paper] [--t-end T] [--dt DT] [--modes N]
                     [--force FX,FY,FZ] [--omega0 W1,W2,W3] [--every K] [--out result.csv]
     flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|ecos|library]
-                    [--scheme gauss-seidel|jacobi|interface-jacobian] [--fmu-dir DIR] [--plot PNG]
+                    [--scheme gauss-seidel|jacobi|interface-jacobian|step-jacobian] [--fmu-dir DIR] [--plot PNG]
                     [--set INSTANCE.VARIABLE=VALUE]...
     flexfmu wec power-matrix [SYSTEM_FILE] [--hs H1,H2,..] [--tp T1,T2,..] [--seeds N] [--t-end T]
                     [--serial | --scheduler ADDRESS] [--out power_matrix.csv] [--plot power_matrix.png]

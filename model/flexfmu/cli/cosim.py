@@ -118,7 +118,10 @@ def add_parser(sub) -> None:
                          help="coupling scheme (default gauss-seidel, in the file's simulator order; libcosim, "
                               "ecos: jacobi only). interface-jacobian: every simulator steps, then the coupling "
                               "equations are solved with the outputs linearised in the inputs (interface Jacobians: "
-                              "the library models' output functions; FMUs must provide directional derivatives)")
+                              "the library models' output functions; FMUs must provide directional derivatives). "
+                              "step-jacobian: the inputs held over each step solve the coupling over it, with the "
+                              "outputs linearised in them over the step (by rolling the simulators back): also "
+                              "loops through states (docs/stability.md)")
     cosim_p.add_argument("--fmu-dir", type=Path, default=None, metavar="DIR",
                          help="take the FMUs from DIR instead of the file's sources (same file names)")
     cosim_p.add_argument("--plot", type=Path, default=None, metavar="PNG",

@@ -65,6 +65,14 @@ COUPLING_SCHEMES = ("jacobi", "gauss-seidel", INTERFACE_JACOBIAN, STEP_JACOBIAN)
 #: for a step whose outputs are affine in the held input (every linear slave's), else an error delta^2 |y'''| / 6;
 #: rounding about u_r |y| / delta, ~1e-12 |y|
 STEP_DIFFERENCE = 1e-4
+#: step-Jacobian: the weight of the step's end in the outputs the held inputs follow, u = L (theta y(t + h) +
+#: (1 - theta) y(t)) (the theta-method).  theta = 1 (the end alone) left unstable bands where a lightly damped mode
+#: sits at the step's Nyquist frequency (a force held over a step against a velocity reversing within it feeds the
+#: mode: the wave converter's rod at 4.479 ms, spectral radius 1.0097, and 20 ms, 1.035); theta = 1/2 (the step's
+#: trapezoidal mean, exact in the power a held force exchanges with a linearly varying velocity) leaves no
+#: damping for the instantaneous loops (1.09 at 1 ms on docs/stability.md's mass-ratio-10 harvester); 0.6, the
+#: damped theta-method's usual choice, is stable on both up to 15 ms and 1 ms (tests/test_cosim_step_jacobian.py)
+STEP_THETA = 0.6
 #: The coupling matrix I - L D counts as singular (the loop has no unique solution: a loop gain of 1) when its
 #: condition number exceeds this: beyond it the solved inputs would keep fewer than 4 of their 16 digits.
 MAX_COUPLING_CONDITION = 1e12
@@ -108,8 +116,8 @@ class InterfaceCoupling:
 
     def step(self, slaves, t: float, h: float) -> None:
         """One step-Jacobian communication step from t to t + h: the inputs held over the step solve the coupling
-        equations at its end, u = L y(t + h; u), with each slave's outputs at t + h linearised in the inputs it holds
-        over the step, y_i(u_i) = y_i(u_i^n) + S_i (u_i - u_i^n), S_i = d y_i(t + h) / d u_i (held): the interface
+        equations over it, u = L (theta y(t + h; u) + (1 - theta) y(t)) (STEP_THETA), with each slave's outputs at
+        t + h linearised in the inputs it holds over the step, y_i(u_i) = y_i(u_i^n) + S_i (u_i - u_i^n), S_i = d y_i(t + h) / d u_i (held): the interface
         Jacobian over the step, the instantaneous D_i plus what the state does over the step (C_i dx_i/du_i).  So a
         loop that closes through a state (a damper's force from a velocity: D = 0) is solved too, as backward Euler
         solves a stiff term, where the instantaneous interface Jacobian and Gauss-Seidel lag it by about h/2.
@@ -123,6 +131,7 @@ class InterfaceCoupling:
             for name in self.order:
                 slave, names = slaves[name], self.inputs[name]
                 held[name] = np.array(slave.get(names), float)
+                before = np.array(slave.get(slave.output_names), float)
                 if names:
                     states[name] = slave.snapshot()
                 slave.do_step(t, h)
@@ -138,7 +147,8 @@ class InterfaceCoupling:
                         moved.append(np.array(slave.get(slave.output_names), float))
                     slave.set([input_name], [held[name][j]])
                     S[:, j] = (moved[0] - moved[1]) / (2.0 * delta)
-                jacobians[name] = S
+                jacobians[name] = STEP_THETA * S
+                outputs[name] = STEP_THETA * outputs[name] + (1.0 - STEP_THETA) * before
             u = self._linearised_solution(slaves, held, outputs, jacobians, t + h)
             for name in states:
                 slaves[name].restore(states[name])
