@@ -188,16 +188,23 @@ def test_free_bodies_are_co_simulation_only(fmus, tmp_path):
         build_registry_fmu("ReframeBody", target=tmp_path / "ReframeBody.fmu", interface="me")
     with pytest.raises(ParameterError, match="interface.*cs \\| me \\| both"):
         build_registry_fmu("FFRBeam", target=tmp_path / "FFRBeam.fmu", interface="ME")
-    with pytest.raises(Exception):
-        MeInstance(fmus["ReframeBody", 2], "me")
-    # the message reaches the host's logger: instantiate once more by hand to read it
+    # fmi2Instantiate(fmi2ModelExchange) of a free body returns NULL and tells the host's logger why
     from fmpy import extract
-    from fmpy.fmi2 import FMU2Model
+    from fmpy.fmi2 import FMU2Model, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
     md = read_model_description(str(fmus["ReframeBody", 2]))
+    log = []
+    logger = fmi2CallbackLoggerTYPE(lambda c, n, status, cat, m: log.append((status, (m or b"").decode())))
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = logger
+    callbacks.allocateMemory = ctypes.cast(None, type(callbacks.allocateMemory))
+    callbacks.freeMemory = ctypes.cast(None, type(callbacks.freeMemory))
     inst = FMU2Model(guid=md.guid, unzipDirectory=extract(str(fmus["ReframeBody", 2])),
                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="me")
     with pytest.raises(Exception):
-        inst.instantiate(loggingOn=True)
+        inst.instantiate(callbacks=callbacks, loggingOn=True)
+    assert [m for status, m in log if status == 3] == [
+        "fmi2Instantiate: this model (kind 'reframe') is co-simulation only: it is advanced by its own stepping "
+        "method (fmuType/interface: co-simulation)"], log
 
 
 def test_model_exchange_calls_refused_with_a_message(fmus):
