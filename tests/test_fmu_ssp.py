@@ -104,8 +104,9 @@ ECOS_DRIVER = r"""
 import sys, time, numpy as np
 from flexfmu.cosim.masters import load_system, run_ecos
 path, t_end, out, values = sys.argv[1], float(sys.argv[2]), sys.argv[3], eval(sys.argv[4])
+every = int(sys.argv[5]) if len(sys.argv) > 5 else 1
 start = time.perf_counter()
-r = run_ecos(load_system(path).with_values(values), t_end)
+r = run_ecos(load_system(path).with_values(values), t_end, every=every)
 np.savez(out, t=r.t, names=np.array(list(r.columns)), data=np.array(list(r.columns.values())))
 print(f"ECOS_WALL {time.perf_counter() - start:.3f}")
 """
@@ -152,6 +153,37 @@ def test_three_masters_run_the_ssp_to_1e9(ssp_file, tmp_path, capsys):
               + "; wall " + ", ".join(f"{k} {v:.1f} s" for k, v in walls.items()))
     for host, (worst, where) in diffs.items():
         assert worst <= 1e-9, (host, worst, where)
+
+
+def test_engines_record_every_kth_point_the_same_values(ssp_file, tmp_path):
+    """libcosim and ecos with every = 7 (the steps between recorded points in one engine call): at the recorded
+    points the same values, bit for bit, as recording every point (the engines take the same steps), and the last
+    point recorded although n is no multiple of 7."""
+    pytest.importorskip("libcosimpy", reason="libcosimpy (DNV's libcosim) is not installed: the dev extra")
+    system = load_system(ssp_file).with_values(QUICK)
+    every = run_libcosim(system, T_END, description="ssp")
+    n = every.t.size                          # libcosim records from the first step: points 1 .. n
+    assert n % 7 != 0
+    sparse = run_libcosim(system, T_END, description="ssp", every=7)
+    keep = [0] + list(range(6, n, 7)) + ([n - 1] if (n - 1) % 7 != 6 else [])
+    assert np.array_equal(sparse.t, every.t[keep])
+    assert all(np.array_equal(sparse[k], every[k][keep]) for k in every.columns)
+
+    found = ecos_binaries()
+    if isinstance(found, str):
+        pytest.skip(f"ecos not available: {found}")
+    env = host_environment(tmp_path)
+    data = {}
+    for k in (1, 7):
+        out = tmp_path / f"ecos_{k}.npz"
+        proc = run_host([sys.executable, "-c", ECOS_DRIVER, ssp_file, repr(T_END), out, repr(QUICK), str(k)], env,
+                        tmp_path, timeout=600)
+        assert proc.returncode == 0 and out.is_file(), describe(proc, env)
+        data[k] = np.load(out)
+    n = data[1]["t"].size - 1                 # ecos records t0 and points 1 .. n
+    keep = list(range(0, n + 1, 7)) + ([n] if n % 7 else [])
+    assert np.array_equal(data[7]["t"], data[1]["t"][keep])
+    assert np.array_equal(data[7]["data"], data[1]["data"][:, keep])
 
 
 def test_bad_ssp_files_name_the_problem(ssp_file, tmp_path):

@@ -57,10 +57,13 @@ def _cosim(args: argparse.Namespace) -> int:
                       f"({scheme}): the linearised coupled step is unstable at {check['first_unstable']:.3g} s "
                       f"(spectral radius at {h:g} s: {check['spectral_radius']:.6f}); expect growing oscillation "
                       "or divergence - use a smaller --step (docs/wave_converter.md)", file=sys.stderr, flush=True)
+    # libcosim and ecos record only every K-th point (the steps between in one call: no Python in their loop)
+    recorded_every = args.every if args.master in ("libcosim", "ecos") else 1
     if args.master == "libcosim":
-        result = cosim.run_libcosim(system, args.t_end, h, progress=True, max_result_bytes=max_bytes)
+        result = cosim.run_libcosim(system, args.t_end, h, progress=True, max_result_bytes=max_bytes,
+                                    every=args.every)
     elif args.master == "ecos":
-        result = cosim.run_ecos(system, args.t_end, h, progress=True, max_result_bytes=max_bytes)
+        result = cosim.run_ecos(system, args.t_end, h, progress=True, max_result_bytes=max_bytes, every=args.every)
     else:
         backend = "library" if args.master == "library" else "fmu"
         result = cosim.run(system, args.t_end, h, scheme=scheme, backend=backend, progress=True,
@@ -73,7 +76,7 @@ def _cosim(args: argparse.Namespace) -> int:
         print("energy balance over the run:")
         print(balance.table())
     if args.out is not None:
-        if args.every > 1:
+        if args.every > 1 and recorded_every == 1:
             keep = slice(None, None, args.every)
             result = cosim.CosimResult(result.t[keep], {k: v[keep] for k, v in result.columns.items()},
                                        result.step, result.scheme, result.master)
@@ -105,7 +108,8 @@ def add_parser(sub) -> None:
                          help="communication step, s (default: the file's BaseStepSize)")
     cosim_p.add_argument("--out", type=Path, default=None, metavar="CSV",
                          help="write every output of every simulator as CSV (columns instance.variable)")
-    cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point")
+    cosim_p.add_argument("--every", type=int, default=1, metavar="K", help="write every K-th communication point (libcosim, ecos: record only those, the steps between in one call "
+                              "of the engine; the summary and energy balance then use those points)")
     cosim_p.add_argument("--max-memory", type=float, default=MAX_RESULT_BYTES / 2**30, metavar="GIB",
                          help="refuse, before it starts, a run whose recorded results (every output at every "
                               "communication point, 8 bytes each) would exceed GIB gibibytes "

@@ -27,13 +27,21 @@ def _is_ssp(system: System) -> bool:
                                         or Path(system.path).is_dir())
 
 
+def _chunks(n: int, every: int) -> list[int]:
+    """The steps between recorded points: ``every`` steps each, the last chunk what is left of n."""
+    require(isinstance(every, int) and every >= 1, "every", f"got {every!r}", "an integer >= 1")
+    return [every] * (n // every) + ([n % every] if n % every else [])
+
+
 def run_libcosim(system: System, t_end: float, step: float | None = None, progress: bool = False,
                  label: str = "flexfmu cosim (libcosim)", description: str | None = None,
-                 max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
+                 max_result_bytes: float = MAX_RESULT_BYTES, every: int = 1) -> CosimResult:
     """DNV's libcosim (libcosimpy) on the same description (its fixed-step algorithm: Jacobi).
     The system (with any changed start values) is written into a temporary folder first, as an OSP
     file with absolute FMU paths (``description="osp"``, libcosim's from_osp_config_file) or as an
-    SSP archive (``"ssp"``, from_ssp_file); default: the format the system was read from."""
+    SSP archive (``"ssp"``, from_ssp_file); default: the format the system was read from.  ``every``: record the
+    outputs at every ``every``-th communication point (and the last): libcosim takes the steps between in one call,
+    without Python in its loop (a long run's speed is then libcosim's and the FMUs')."""
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
@@ -68,17 +76,26 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
         rows.append(np.concatenate([observer.last_real_values(index[nm], [vr for _, vr in outputs[nm]])
                                     for nm in order]))
 
+    chunks = _chunks(n, every)
+    done = []                         # the step count after each recorded point
     with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
         ok = execution.step(1)        # libcosim initialises on the first step
         require(ok, "libcosim", "the first step failed", "see the FMUs' log")
         sample()                      # libcosim's observer has no values before the first step: t0 is not recorded
+        done.append(1)
         bar.update_to(1, system.start_time + h)
-        for k in range(1, n):
-            ok = execution.step(1)
-            require(ok, "libcosim", f"step {k + 1} (t = {system.start_time + k * h:.9g} s) failed",
-                    "a step inside the coupling-stability limit")
+        # after the first step, chunks of `every` (the first chunk one shorter: the points stay at multiples)
+        chunks[0] -= 1
+        for count in chunks:
+            if count == 0:
+                continue
+            k = done[-1]
+            ok = execution.step(count)
+            require(ok, "libcosim", f"a step in {k + 1} .. {k + count} (t = {system.start_time + k * h:.9g} .. "
+                    f"{system.start_time + (k + count) * h:.9g} s) failed", "a step inside the coupling-stability limit")
             sample()
-            bar.update_to(k + 1, system.start_time + (k + 1) * h)
+            done.append(k + count)
+            bar.update_to(k + count, system.start_time + (k + count) * h)
     del execution
     data = np.array(rows)
     columns = {}
@@ -87,7 +104,7 @@ def run_libcosim(system: System, t_end: float, step: float | None = None, progre
         for var, _ in outputs[nm]:
             columns[f"{nm}.{var}"] = data[:, j]
             j += 1
-    t = system.start_time + h * np.arange(1, n + 1)
+    t = system.start_time + h * np.array(done, float)
     return CosimResult(t, columns, h, "jacobi", "libcosim (jacobi)")
 
 
@@ -125,13 +142,16 @@ def _ecos_error() -> str:
 
 
 def run_ecos(system: System, t_end: float, step: float | None = None, progress: bool = False,
-             label: str = "flexfmu cosim (ecos)", max_result_bytes: float = MAX_RESULT_BYTES) -> CosimResult:
+             label: str = "flexfmu cosim (ecos)", max_result_bytes: float = MAX_RESULT_BYTES,
+             every: int = 1) -> CosimResult:
     """The ecos engine (ecospy's C library, the FMUs in this process) on the system written as an SSP
     archive into a temporary folder (its fixed-step algorithm: Jacobi; the outputs after
     initialisation are passed to the inputs before the first step; time accumulated, t += h).
     Start values are the SSP's parameter set "start".  ecos goes on after an FMU call fails (its init and step
     still succeed): each FMU is initialised once beforehand, so that a refused start value is raised; a step an
-    FMU refuses during the run cannot be seen from here (run the fmpy master to see it)."""
+    FMU refuses during the run cannot be seen from here (run the fmpy master to see it).  ``every``: record the
+    outputs at t0 and every ``every``-th communication point (and the last), ecos taking the steps between in one
+    call."""
     h = float(system.base_step if step is None else step)
     n = n_steps(t_end, system.start_time, h)
     require(system.start_time == 0.0, "StartTime", f"got {system.start_time!r}", "0 for ecos")
@@ -142,7 +162,8 @@ def run_ecos(system: System, t_end: float, step: float | None = None, progress: 
     outputs = {s.name: [v.name for v in model_description(s).modelVariables
                         if v.causality == "output"] for s in system.simulators}
     ids = [f"{nm}::{var}" for nm in order for var in outputs[nm]]
-    rows = np.empty((n + 1, len(ids)))
+    chunks = _chunks(n, every)
+    rows = np.empty((len(chunks) + 1, len(ids)))
     with tempfile.TemporaryDirectory() as tmp:
         ssp = write_ssp(system, Path(tmp) / "system.ssp", h)
         sim = EcosSimulation(ssp_path=str(ssp), step_size=h)
@@ -153,17 +174,20 @@ def run_ecos(system: System, t_end: float, step: float | None = None, progress: 
                 raise CosimulationError(f"ecos: initialisation failed: {_ecos_error()}")
             get = sim.get_real
             rows[0] = [get(i) for i in ids]
+            k = 0
             with progress_bar(n, label, enabled=progress, t_end=t_end) as bar:
-                for k in range(n):
-                    t = sim.step()
-                    if not t > system.start_time + (k + 0.5) * h:      # the step did not happen
-                        raise CosimulationError(f"ecos: step {k + 1} (t = {system.start_time + k * h:.6g} s) "
-                                                f"failed: {_ecos_error()}")
-                    rows[k + 1] = [get(i) for i in ids]
-                    bar.update_to(k + 1, system.start_time + (k + 1) * h)
+                for j, count in enumerate(chunks):
+                    t = sim.step(count)
+                    if not t > system.start_time + (k + count - 0.5) * h:      # a step did not happen
+                        raise CosimulationError(f"ecos: a step in {k + 1} .. {k + count} (from t = "
+                                                f"{system.start_time + k * h:.6g} s) failed: {_ecos_error()}")
+                    k += count
+                    rows[j + 1] = [get(i) for i in ids]
+                    bar.update_to(k, system.start_time + k * h)
             sim.terminate()
         finally:
             sim.free()
     require(bool(np.all(np.isfinite(rows))), "ecos", "non-finite outputs", "a step inside the coupling-stability limit")
     columns = dict(zip([f"{nm}.{var}" for nm in order for var in outputs[nm]], rows.T))
-    return CosimResult(system.start_time + h * np.arange(n + 1), columns, h, "jacobi", "ecos (jacobi)")
+    points = np.concatenate([[0], np.cumsum(chunks)])
+    return CosimResult(system.start_time + h * points, columns, h, "jacobi", "ecos (jacobi)")
