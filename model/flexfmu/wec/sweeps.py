@@ -5,7 +5,7 @@ IEC TS 62600-100 layout (never written empty).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -112,16 +112,30 @@ MAX_STEEPNESS = 1 / 15
 class PowerMatrix:
     """Mean harvested power (W) over irregular (JONSWAP) seas: ``power[i, j]`` for significant wave
     height ``heights[i]`` and peak period ``periods[j]``, the mean over the seeds; NaN where not
-    computed (steeper than max_steepness, or every seed failed).  ``rows`` is one row per co-simulation."""
+    computed (steeper than max_steepness, or every seed failed).  ``rows`` is one row per co-simulation.
+    The standard's statistics (flexfmu.wec.iec, flexfmu.wec.power_study.cell_statistics): ``bins``, one dict per
+    computed bin; ``ci_half_width[i, j]`` the half width of the confidence interval of the mean (W, NaN for fewer
+    than two runs); ``energy_periods[j]`` the energy period Te (s) of the column's sea states; ``average_from`` the
+    start of each run's statistics window (s; None: half the run); ``characteristic_width`` (m) that the capture-width
+    ratio divides by; ``configuration`` a name of the system's configuration; ``bin_checks`` whether the bins were
+    checked against the standard's widths and minimum count."""
 
     heights: np.ndarray
     periods: np.ndarray
     power: np.ndarray
     rows: list
-    boundary: str
+    boundary: str | None
     t_end: float
     seeds: tuple
     wall_s: float = 0.0
+    bins: list = field(default_factory=list)
+    ci_half_width: np.ndarray | None = None
+    energy_periods: np.ndarray | None = None
+    average_from: float | None = None
+    characteristic_width: float = float("nan")
+    confidence: float = 0.95
+    configuration: str = ""
+    bin_checks: bool = False
 
     def _require_a_cell(self) -> None:
         require(bool(np.isfinite(self.power).any()), "power matrix", "no cell computed (every cell too steep or "
@@ -141,42 +155,77 @@ class PowerMatrix:
                 w.writerow([repr(float(hs))] + ["" if not np.isfinite(p) else repr(float(p)) for p in row])
         return path
 
+    def write_bins_csv(self, path) -> Path:
+        """One row per computed bin: its sea state (Hs, Tp, Hm0, Te, J), the statistics of its runs' mean powers
+        (count, mean, std, min, max, confidence interval), capture width and ratio, and the frequency-domain
+        prediction where there is one.  Refused without a computed cell."""
+        self._require_a_cell()
+        return write_table(self.bins, path)
+
+    def _window(self) -> str:
+        if self.average_from is None:
+            return "second half of each run"
+        return f"{self.average_from:g} .. {self.t_end:g} s of each run"
+
     def plot(self, path) -> Path:
-        """The matrix as a heat map in the table's layout (Hs down, Tp across; log colour scale), the
-        value of each computed cell written in it, empty cells blank.  A matrix without a computed cell is refused."""
+        """The matrix as a heat map in the table's layout (Hs down, Tp across with each column's Te; log colour
+        scale), the mean of each computed cell written in it with the confidence interval of the mean (+- its half
+        width), empty cells blank.  A matrix without a computed cell is refused."""
         self._require_a_cell()
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        from matplotlib.colors import LogNorm
 
         nh, nt = self.power.shape
-        fig, ax = plt.subplots(figsize=(max(5.0, 2.4 + 1.1 * nt), max(3.2, 1.8 + 0.6 * nh)))
-        data = np.ma.masked_invalid(np.where(self.power > 0, self.power, np.nan))
-        norm = LogNorm(vmin=data.min(), vmax=data.max()) if data.count() and data.min() < data.max() else None
-        im = ax.imshow(data, cmap="viridis", norm=norm, aspect="auto")
-        for i in range(nh):
-            for j in range(nt):
-                p = self.power[i, j]
-                if np.isfinite(p):
-                    light = norm is not None and norm(p) < 0.5
-                    ax.text(j, i, f"{p:.2g}", ha="center", va="center", fontsize=8,
-                            color="white" if light else "black")
-        ax.set_xticks(range(nt), [f"{t:g}" for t in self.periods])
-        ax.set_yticks(range(nh), [f"{h:g}" for h in self.heights])
-        ax.set_xlabel("peak period Tp (s)")
-        ax.set_ylabel("significant wave height Hs (m)")
-        ax.set_xticks(np.arange(nt + 1) - 0.5, minor=True)
-        ax.set_yticks(np.arange(nh + 1) - 0.5, minor=True)
-        ax.grid(which="minor", color="0.7", lw=0.5)
-        ax.tick_params(which="minor", length=0)
-        if data.count():
-            fig.colorbar(im, ax=ax, label="mean harvested power (W)")
-        ax.set_title(f"mean harvested power (W), harvester {self.boundary}\nJONSWAP, mean of {len(self.seeds)} "
-                     f"seeds, {self.t_end:g} s runs; empty: not computed", fontsize=9)
+        fig, ax = plt.subplots(figsize=(max(5.0, 2.6 + 1.35 * nt), max(3.4, 2.0 + 0.75 * nh)))
+        self.draw(ax)
         fig.tight_layout()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=120)
         plt.close(fig)
         return path
+
+    def draw(self, ax, title: str | None = None) -> None:
+        """The heat map of :meth:`plot` on a matplotlib axes (its colour bar beside it); ``title`` replaces the
+        one that says what was run."""
+        self._require_a_cell()
+        from matplotlib.colors import LogNorm
+
+        nh, nt = self.power.shape
+        top = float(np.nanmax(np.abs(self.power)))
+        scale, unit = (1e3, "kW") if top >= 1e3 else (1.0, "W")
+        data = np.ma.masked_invalid(np.where(self.power > 0, self.power / scale, np.nan))
+        norm = LogNorm(vmin=data.min(), vmax=data.max()) if data.count() and data.min() < data.max() else None
+        im = ax.imshow(data, cmap="viridis", norm=norm, aspect="auto")
+        half = self.ci_half_width
+        for i in range(nh):
+            for j in range(nt):
+                p = self.power[i, j]
+                if np.isfinite(p):
+                    light = norm is not None and norm(p / scale) < 0.5
+                    text = f"{p / scale:.3g}"
+                    if half is not None and np.isfinite(half[i, j]):
+                        text += f"\n\u00b1 {half[i, j] / scale:.2g}"
+                    ax.text(j, i, text, ha="center", va="center", fontsize=8,
+                            color="white" if light else "black")
+        te = self.energy_periods
+        labels = [f"{t:g}" + (f"\n({e:.2f})" if te is not None and np.isfinite(e) else "")
+                  for t, e in zip(self.periods, te if te is not None else [np.nan] * nt)]
+        ax.set_xticks(range(nt), labels)
+        ax.set_yticks(range(nh), [f"{h:g}" for h in self.heights])
+        ax.set_xlabel("peak period Tp (s)" + ("\n(energy period Te of the spectrum, s)" if te is not None else ""))
+        ax.set_ylabel("significant wave height Hs (m)")
+        ax.set_xticks(np.arange(nt + 1) - 0.5, minor=True)
+        ax.set_yticks(np.arange(nh + 1) - 0.5, minor=True)
+        ax.grid(which="minor", color="0.7", lw=0.5)
+        ax.tick_params(which="minor", length=0)
+        if data.count():
+            ax.figure.colorbar(im, ax=ax, label=f"mean absorbed power ({unit})")
+        if title is None:
+            what = f"harvester {self.boundary}" if self.boundary else (self.configuration or "")
+            ci = (f"\u00b1: {100 * self.confidence:g} % confidence interval of the mean (Student t, n - 1 dof); "
+                  if half is not None and np.isfinite(half).any() else "")
+            title = (f"mean absorbed power ({unit}), {what}\nJONSWAP, {len(self.seeds)} seeds per cell, "
+                     f"{self.t_end:g} s runs, mean over {self._window()}\n{ci}empty: not computed")
+        ax.set_title(title, fontsize=8)
