@@ -43,6 +43,11 @@ PANELS_PER_WAVELENGTH = 8
 DEFAULT_PANEL_SIZE = 0.05          # m: 560 hull panels on the example box
 DEFAULT_HEADINGS_DEG = (0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0)
 _KIND = "bem"
+#: the cylinder's lid nearer the surface than Capytaine's lowest_lid_position (whose rule is a rectangular
+#: waterline's): on the point absorber's cylinder (radius 5 m, draft 3 m, 0.43 m panels, omega_max 5 rad/s) its lid at
+#: z = -0.357 m left a spurious heave resonance at 4.75 rad/s (B33 11 kN s/m, 14 % of its peak), one at -0.6 m spikes
+#: in B11 and B33 from 4.6 rad/s, one at 0.7 x (-0.25 m) none from 4.5 to 5.5 rad/s
+CYLINDER_LID_FACTOR = 0.7
 
 
 def default_frequencies(n: int = 80, omega_min: float = 0.2, omega_max: float = 15.0) -> np.ndarray:
@@ -64,10 +69,10 @@ def max_frequency(panel_radius: float, g: float = 9.81) -> float:
 # ------------------------------------------------------------------ geometry
 @dataclass(frozen=True)
 class HullGeometry:
-    """A hull for the BEM: either a box (length, beam, draft; mesh generated) or a mesh file (any format
-    Capytaine or meshio reads; coordinates in m, z = 0 the free surface, the reference point O at the
-    origin; only the part below z = 0 is used).  centre of gravity (x_G, y_G, z_G) from O; the hull floats
-    freely (mass = rho * displaced volume)."""
+    """A hull for the BEM: a box (length, beam, draft; mesh generated), a vertical circular cylinder (radius,
+    draft; mesh generated, O on its axis) or a mesh file (any format Capytaine or meshio reads; coordinates
+    in m, z = 0 the free surface, the reference point O at the origin; only the part below z = 0 is used).
+    centre of gravity (x_G, y_G, z_G) from O; the hull floats freely (mass = rho * displaced volume)."""
 
     length: float = 0.0
     beam: float = 0.0
@@ -76,17 +81,38 @@ class HullGeometry:
     x_G: float = 0.0
     y_G: float = 0.0
     z_G: float = -0.10
+    radius: float = 0.0            # > 0: the vertical cylinder (length and beam then 0)
 
     @classmethod
     def box(cls, params: BoxParameters) -> "HullGeometry":
         return cls(length=params.length, beam=params.beam, draft=params.draft, z_G=params.z_G)
 
+    @classmethod
+    def cylinder(cls, radius: float, draft: float, z_G: float) -> "HullGeometry":
+        return cls(draft=draft, z_G=z_G, radius=radius)
+
+    @property
+    def is_cylinder(self) -> bool:
+        return not self.mesh_file and self.radius != 0.0
+
     @property
     def is_box(self) -> bool:
-        return not self.mesh_file
+        return not self.mesh_file and self.radius == 0.0
+
+    def smallest_dimension(self) -> float:
+        """The generated mesh's smallest dimension (m): the largest panel size it takes."""
+        return min(self.radius, self.draft) if self.is_cylinder else min(self.length, self.beam, self.draft)
 
     def check(self) -> "HullGeometry":
-        if self.is_box:
+        if self.is_cylinder:
+            for name in ("radius", "draft"):
+                v = getattr(self, name)
+                require(isinstance(v, (int, float)) and math.isfinite(v) and v > 0, name, f"got {v!r}",
+                        "> 0 m for the cylinder")
+            for name in ("length", "beam"):
+                require(getattr(self, name) == 0.0, name, f"got {getattr(self, name)!r} with radius {self.radius!r}",
+                        "0 for the cylinder (a box has radius 0)")
+        elif self.is_box:
             for name in ("length", "beam", "draft"):
                 v = getattr(self, name)
                 require(isinstance(v, (int, float)) and math.isfinite(v) and v > 0, name, f"got {v!r}",
@@ -103,7 +129,9 @@ class HullGeometry:
         """What the database depends on (a mesh file by its content)."""
         from flexfmu.core.cache import file_digest
         d = {f.name: getattr(self, f.name) for f in fields(self)}
-        if not self.is_box:
+        if d["radius"] == 0.0:                   # boxes and mesh files keep the keys they had before the cylinder
+            del d["radius"]
+        if self.mesh_file:
             d["mesh_file"] = file_digest(str(Path(self.mesh_file).resolve()))
         return d
 
@@ -130,6 +158,20 @@ def box_mesh(length: float, beam: float, draft: float, panel_size: float = DEFAU
     return mesh.immersed_part()
 
 
+def cylinder_mesh(radius: float, draft: float, panel_size: float = DEFAULT_PANEL_SIZE):
+    """Capytaine mesh of the wetted vertical cylinder (z in [-draft, 0], O on the axis at z = 0), panels of at
+    most panel_size per side (ring, sector and slice), with the x-z symmetry plane (Capytaine solves on a half;
+    its axial symmetry would be faster, but its lid generation returns no panels for it)."""
+    cpt = _capytaine()
+    _check_panel_size(panel_size, min(radius, draft))
+    # an even number of sectors (the symmetry plane); meshed to 2 * draft and clipped at z = 0 as the box
+    res = (max(1, math.ceil(radius / panel_size)), 2 * max(2, math.ceil(math.pi * radius / panel_size)),
+           2 * max(1, math.ceil(draft / panel_size)))
+    mesh = cpt.mesh_vertical_cylinder(length=2 * draft, radius=radius, center=(0.0, 0.0, 0.0), resolution=res,
+                                      reflection_symmetry=True, name="cylinder")
+    return mesh.immersed_part()
+
+
 def _check_panel_size(panel_size: float, size: float) -> None:
     require(isinstance(panel_size, (int, float)) and math.isfinite(panel_size) and 0 < panel_size <= size,
             "panel_size", f"got {panel_size!r}", f"0 < panel_size <= {size:.4g} m (the smallest hull dimension)")
@@ -145,6 +187,8 @@ def floating_body(geometry: HullGeometry, panel_size: float = DEFAULT_PANEL_SIZE
     geometry.check()
     if geometry.is_box:
         mesh = box_mesh(geometry.length, geometry.beam, geometry.draft, panel_size)
+    elif geometry.is_cylinder:
+        mesh = cylinder_mesh(geometry.radius, geometry.draft, panel_size)
     else:
         try:
             mesh = cpt.load_mesh(geometry.mesh_file)
@@ -159,6 +203,8 @@ def floating_body(geometry: HullGeometry, panel_size: float = DEFAULT_PANEL_SIZE
         z_lid = float(mesh.lowest_lid_position(omega_max=omega_max))
     if not math.isfinite(z_lid):                 # Capytaine's bound is NaN when no depth limits omega_max
         z_lid = -0.5 * draft
+    elif geometry.is_cylinder:
+        z_lid *= CYLINDER_LID_FACTOR
     lid = mesh.generate_lid(z=min(max(z_lid, -0.5 * draft), -1e-3 * draft))
     return cpt.FloatingBody(mesh=mesh, lid_mesh=lid, center_of_mass=(geometry.x_G, geometry.y_G, geometry.z_G),
                             dofs=cpt.rigid_body_dofs(rotation_center=(0.0, 0.0, 0.0)), name="hull")
@@ -227,7 +273,7 @@ def hydro_database(geometry: HullGeometry | BoxParameters = BoxParameters(), ome
 
     geometry: a HullGeometry, or BoxParameters (its length, beam, draft, z_G; rho and g default to its own).
     omega: finite angular frequencies (rad/s), default :func:`default_frequencies`; headings in degrees.
-    panel_size: the box's panel side (m; a mesh file is used as it is, panel_size only enters the key)."""
+    panel_size: the box's or cylinder's panel side (m; a mesh file is used as it is, panel_size only enters the key)."""
     if isinstance(geometry, BoxParameters):
         rho = geometry.rho if rho is None else rho
         g = geometry.g if g is None else g
@@ -245,8 +291,8 @@ def hydro_database(geometry: HullGeometry | BoxParameters = BoxParameters(), ome
     headings = np.asarray(headings_deg, float).ravel()
     require(headings.size >= 1 and np.all(np.isfinite(headings)), "headings_deg", f"got {headings_deg!r}",
             "finite angles in degrees")
-    if geometry.is_box:
-        _check_panel_size(panel_size, min(geometry.length, geometry.beam, geometry.draft))
+    if not geometry.mesh_file:
+        _check_panel_size(panel_size, geometry.smallest_dimension())
     cpt = _capytaine()
     from flexfmu.core import cache
     key = cache.make_key(_KIND, geometry=geometry.key(), omega=omega, headings_deg=headings,
@@ -290,7 +336,8 @@ def _compute(geometry: HullGeometry, omega, headings, panel_size, rho, g):
         "capytaine_version": cpt.__version__,
         "date": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "geometry": repr(geometry),
-        "reference_point": "O = (0, 0, 0): mesh origin on the free surface (the box's waterplane centre); "
+        "reference_point": "O = (0, 0, 0): mesh origin on the free surface (the box's or cylinder's waterplane "
+                           "centre); "
                            "DOFs surge sway heave (m) roll pitch yaw (rad) of O, loads about O",
         "time_convention": "Re(Z exp(-i omega t)); wave crest at O at t = 0",
         "water_depth": "infinite",
