@@ -69,6 +69,8 @@ F64, I32, STR = 1, 2, 3
 TYPES = {"Real": 0, "Integer": 1, "Boolean": 2, "String": 3}
 CAUSALITIES = {"parameter": 0, "input": 1, "output": 2}
 LO_OPEN, HI_OPEN, INTEGER, SPECIAL = 1, 2, 4, 8
+#: the kinds whose simulators read String runtime parameters (native_kind.h's texts); the others have theirs fixed
+TEXT_KINDS = ("python", "wec")
 #: what a parameter of each type allows when nothing narrower is known (the Python kind's: its config checks more)
 ALLOWED = {"Real": "a finite number", "Integer": "an integer", "Boolean": "a boolean", "String": "a UTF-8 string"}
 
@@ -179,7 +181,7 @@ def entries(spec, *, kind: str, name: str, guid: str, values: dict | None = None
     params = [v.name for v in variables if v.causality == "parameter" and v.name in runtime]
     inputs = [v.name for v in variables if v.causality == "input"]
     outputs = [v.name for v in variables if v.causality == "output"]
-    if kind != "python":
+    if kind not in TEXT_KINDS:
         for v in variables:
             if v.causality == "parameter" and v.name in runtime and v.type == "String":
                 raise ParameterError(v.name, "a String parameter cannot stay settable in a native FMU",

@@ -31,8 +31,10 @@ from flexfmu.fmi.model_file import RuntimeParameter
 
 from flexfmu.fmi.native_build import NativeSource, build_native_fmu
 
+#: the point absorber's components (flexfmu.wec.absorber) as the wec kind's components (csrc/native_wec.c)
+WEC_COMPONENTS = {"AbsorberWave": "wave", "AbsorberFloat": "float", "AbsorberHydro": "hydro", "HeavePTO": "pto"}
 #: FMU specs with a native form (flexfmu.fmi.registry names), and why the others have none yet
-NATIVE_FMUS = ("FFRBeam", "ReframeBody")
+NATIVE_FMUS = ("FFRBeam", "ReframeBody", *WEC_COMPONENTS)
 NOT_YET: dict = {}
 
 
@@ -86,6 +88,8 @@ def registry_source(name: str = "FFRBeam", settings: dict | None = None, *, mode
         values[key] = _parse_value(key, text, defaults[key])
     if name == "ReframeBody":
         return _reframe_source(spec, values, defaults, model_name)
+    if name in WEC_COMPONENTS:
+        return wec_source(spec, WEC_COMPONENTS[name], values, _absorber_hull(spec), model_name)
     return _ffrbeam_source(spec, values, defaults, model_name)
 
 
@@ -176,6 +180,75 @@ def _reframe_source(spec, values: dict, defaults: dict, model_name: str) -> Nati
         name=model_name, description=spec.description, spec=spec, values=values, runtime=tuple(runtime), lti=None,
         experiment=dict(spec.experiment), kind="reframe", kind_entries=entries, messages=list(sim.messages),
         rebuild=rebuild, rebuild_settings=settings, info={"source": f"flexfmu.fmi.registry {spec.name}"})
+
+
+# ---------------------------------------------------------------------------------------------- point absorber
+_DOFS = ("x", "y", "z", "rx", "ry", "rz")
+#: each wec component's parameters, in csrc/native_wec.c's order (ROLES), and their ranges as the simulators check them
+WEC_ROLES = {
+    "wave": ("sea_state", "wave_height", "wave_period", "gamma", "seed", "n_components", "record_length", "ramp_time"),
+    "float": ("heave_only",),
+    "hydro": ("drag", *(f"drag_coefficient_{d}" for d in _DOFS), *(f"drag_area_{d}" for d in _DOFS)),
+    "pto": ("damping", "stiffness", "force_limit"),
+}
+_WEC_RULES = {
+    "wave_height": RuntimeParameter("wave_height", 0.0, allowed=">= 0 m"),
+    "wave_period": RuntimeParameter("wave_period", 0.0, lo_open=True,
+                                    allowed="> 0 s, the components within the BEM database's frequencies"),
+    "gamma": RuntimeParameter("gamma", 1.0, allowed=">= 1"),
+    "seed": RuntimeParameter("seed", 0.0, 2.0**31 - 1, allowed="an integer >= 0"),
+    "n_components": RuntimeParameter("n_components", 0.0, 5000.0, allowed="0 (automatic) or 1 .. 5000"),
+    "record_length": RuntimeParameter("record_length", 0.0, lo_open=True, allowed="> 0 s"),
+    "ramp_time": RuntimeParameter("ramp_time", allowed="a finite number of seconds (<= 0: no ramp)"),
+    "damping": RuntimeParameter("damping", 0.0, allowed=">= 0 N s/m"),
+    "stiffness": RuntimeParameter("stiffness", allowed="a finite number of N/m"),
+    "force_limit": RuntimeParameter("force_limit", 0.0, allowed=">= 0 N (0: no limit)"),
+    **{f"drag_coefficient_{d}": RuntimeParameter(f"drag_coefficient_{d}", 0.0, allowed=">= 0") for d in _DOFS},
+    **{f"drag_area_{d}": RuntimeParameter(f"drag_area_{d}", 0.0, allowed=">= 0 (m^2; m^5 for rotations)")
+       for d in _DOFS},
+}
+
+
+def _absorber_hull(spec):
+    """The hull data (flexfmu.wec.absorber.hull.AbsorberHull) of a point-absorber component, through its simulator
+    module (the registry's plug-in point: fmi imports nothing of the wave converter above it)."""
+    hull = getattr(spec.load(), "absorber_hull", None)
+    if hull is None:
+        raise ParameterError("fmu", f"{spec.name}'s module {spec.module} does not name absorber_hull",
+                             "a point-absorber component (flexfmu.wec.absorber)")
+    return hull()
+
+
+def wec_source(spec, component: str, values: dict, hull, model_name: str) -> NativeSource:
+    """A point-absorber component (``component`` of WEC_ROLES) as the wec kind (csrc/native_wec.c): the ``hull``'s
+    data (an AbsorberHull) baked into the model file, every parameter a runtime parameter (``values``: their start
+    values), so one FMU serves every sea state and PTO setting."""
+    roles = WEC_ROLES[component]
+    defaults = dataclasses.asdict(spec.config_class())
+    if set(defaults) != set(roles):
+        raise ParameterError("fmu", f"{spec.name}'s parameters {sorted(defaults)} are not the wec kind's "
+                             f"{component}'s", ", ".join(roles))
+    runtime = tuple(_WEC_RULES.get(name, RuntimeParameter(name, allowed="a boolean or a string")) for name in roles)
+    M_total = np.asarray(hull.M_rb, float) + np.asarray(hull.A_inf, float)
+    rad = hull.radiation
+    arrays = {
+        "wave": lambda: {"wec.sea_state": str(values["sea_state"]), "wec.omega": np.asarray(hull.omega, float),
+                         "wec.X": np.stack([np.real(hull.X), np.imag(hull.X)], axis=-1).astype(float)},
+        "float": lambda: {"wec.M": M_total, "wec.M_inv": np.linalg.inv(M_total)},
+        "hydro": lambda: {"wec.C": np.asarray(hull.C, float), "wec.A_r": np.asarray(rad.A_r, float),
+                          "wec.B_r": np.asarray(rad.B_r, float), "wec.C_r": np.asarray(rad.C_r, float),
+                          "wec.rho": np.float64(hull.rho)},
+        "pto": dict,
+    }[component]()
+
+    def entries(inputs, outputs, params):
+        fixed = [0.0 if isinstance(values[name], str) else float(values[name]) for name in roles]
+        return {"wec.component": component, "wec.fixed": np.array(fixed, float), **arrays}
+
+    return NativeSource(
+        name=model_name, description=spec.description, spec=spec, values=values, runtime=runtime, lti=None,
+        experiment=dict(spec.experiment), kind="wec", kind_entries=entries,
+        rebuild=f"flexfmu build --runtime native --fmu {spec.name}", info={"source": f"flexfmu.fmi.registry {spec.name}"})
 
 
 def _cli_text(value) -> str:

@@ -14,7 +14,7 @@ Layout of a native FMU:
     documentation/index.html      the model, the frozen parameters, the variables, how to rebuild
 
 The model file's format and the entries every kind has: flexfmu.fmi.model_file; the LTI kind's entries:
-csrc/native_lti.c's header comment; the reframe kind's: flexfmu.native.reframe.
+csrc/native_lti.c's header comment; the reframe kind's: flexfmu.native.reframe; the wec kind's: csrc/native_wec.c's.
 """
 from __future__ import annotations
 
@@ -41,8 +41,9 @@ from flexfmu.fmi.model_file import FORMAT_VERSION, MODEL_FILE, write_model_file
 HERE = Path(__file__).resolve().parent
 FMI_CSRC = HERE / "csrc"
 BUILD_INFO = "flexfmu_build.json"
-#: the C sources of a native FMU of the LTI kind: (folder, file) — compiled in this order, shipped in sources/
-_FRONT = ("native_front.c", "flexfmu_fmi3.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c")
+#: the C sources of a native FMU (every kind's): (folder, file) — compiled in this order, shipped in sources/
+_FRONT = ("native_front.c", "flexfmu_fmi3.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c",
+          "native_wec.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "front_common.c", "front_common.h", "flexfmu_bridge.h", "native_kind.h",
                   "native_platform.h")
 _KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
@@ -293,6 +294,7 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
 | `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
 | `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
+| `native_wec.c` | the wec kind: the point absorber's wave, float, hydro and PTO (its expm from `lti_kernels.c`) |
 | `step_policy.c`, `step_policy.h` | both kinds: a communication step's internal steps, refused beyond max_internal_steps |
 | `native_platform.h` | Windows: locks and the library's own path |
 | `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
@@ -328,12 +330,12 @@ writes `linux64` on any Linux).
   -DCMAKE_BUILD_TYPE=Release`; each followed by `cmake --build` of its folder.
 
 Without CMake: compile `native_front.c flexfmu_fmi3.c flexfmu_native.c native_kinds.c native_lti.c native_reframe.c
-lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
+native_wec.c lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
 named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
 symbol visibility (only the fmi2* and fmi3* functions are exported) and libm, e.g.
 `cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_fmi3.c
-flexfmu_native.c native_kinds.c native_lti.c native_reframe.c lti_kernels.c reframe_kernels.c step_policy.c
--o {name}.so -lm -lpthread -ldl`.
+flexfmu_native.c native_kinds.c native_lti.c native_reframe.c native_wec.c lti_kernels.c reframe_kernels.c
+step_policy.c -o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """
