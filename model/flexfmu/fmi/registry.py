@@ -65,6 +65,8 @@ class FmuSpec:
 
 
 _WEC = {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}
+#: the point absorber: a 20-minute sea state; the step examples/point_absorber/README.md measures
+_ABSORBER = {"startTime": "0", "stopTime": "1200", "stepSize": "0.01"}
 
 #: Every FMU flexfmu builds (one FmuSpec each: model name, simulator, description, default experiment), in
 #: build order; ``flexfmu build`` and build_scripts/build_fmus.py make one FMU per entry.
@@ -92,6 +94,19 @@ FMUS: tuple[FmuSpec, ...] = (
     FmuSpec("Mooring", "flexfmu.wec.mooring", "MooringConfig", "MooringSimulator",
             "Three slack catenary mooring lines of a floating body (MoorDyn): their force, moment and fairlead "
             "tensions", _WEC, role="flexfmu.wec.mooring"),
+    # The point absorber's components (examples/point_absorber; the native kind implements the same equations).
+    FmuSpec("AbsorberWave", "flexfmu.wec.absorber.wave", "AbsorberWaveConfig", "AbsorberWaveSimulator",
+            "Wave elevation and BEM excitation force and moment (regular or JONSWAP) on the point absorber's cylinder",
+            _ABSORBER, role="flexfmu.wec.absorber.wave"),
+    FmuSpec("AbsorberFloat", "flexfmu.wec.absorber.float_body", "AbsorberFloatConfig", "AbsorberFloatSimulator",
+            "The point absorber's cylinder as a rigid 6-DOF body (linear seakeeping, infinite-frequency added mass)",
+            _ABSORBER, role="flexfmu.wec.absorber.float_body"),
+    FmuSpec("AbsorberHydro", "flexfmu.wec.absorber.hydro", "AbsorberHydroConfig", "AbsorberHydroSimulator",
+            "Hydrostatic restoring, radiation memory (state space) and quadratic drag on the point absorber's cylinder",
+            _ABSORBER, role="flexfmu.wec.absorber.hydro"),
+    FmuSpec("HeavePTO", "flexfmu.wec.absorber.pto", "HeavePTOConfig", "HeavePTOSimulator",
+            "Linear heave damper and spring (power take-off) with a force limit; absorbed power", _ABSORBER,
+            role="flexfmu.wec.absorber.pto"),
 )
 BY_NAME = {spec.name: spec for spec in FMUS}
 
