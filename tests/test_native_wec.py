@@ -28,6 +28,8 @@ import wec_reference as R  # noqa: E402
 from fmu_helpers import Instance, error_messages  # noqa: E402
 
 RTOL = 1e-12
+#: the Python simulators' bounds on |xi|, |xi_dot| (m, rad, m/s, rad/s) and on the radiation memory states
+DIVERGENCE_LIMITS = {"AbsorberFloat": 1e3, "AbsorberHydro": 1e12}
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +47,8 @@ def fmus(hull, tmp_path_factory) -> dict:
     built = {}
     for name, component in native.WEC_COMPONENTS.items():
         spec = R.SPECS[name]
-        source = native.wec_source(spec, component, dataclasses.asdict(spec.config_class()), hull, name)
+        source = native.wec_source(spec, component, dataclasses.asdict(spec.config_class()), hull, name,
+                                   divergence_limit=DIVERGENCE_LIMITS.get(name, np.inf))
         built[name] = build_native_fmu(source, out / f"{name}.fmu")
     return built
 
@@ -215,11 +218,15 @@ def test_fmu_state_round_trip_gives_the_same_numbers_bit_for_bit(fmus, name):
 
 # ---------------------------------------------------------------------------------------------- refusals
 @pytest.mark.parametrize("start, name, text", [
-    ({"wave_period": 200.0}, "wave_period", "rad/s leave the BEM database's 0.05 .. 5 rad/s"),
-    ({"sea_state": "jonswap", "wave_period": 1.5}, "wave_period", "for jonswap with"),
+    ({"wave_period": 200.0}, "wave_period", "wave frequencies 0.0314159 .. 0.0314159 rad/s lie outside the BEM "
+     "database's (allowed: wave frequencies within 0.05 .. 5 rad/s: a regular period 1.25664 .. 125.664 s; a "
+     "JONSWAP Tp whose band 0.5 .. 3 w_p lies within it, about 3.77 .. 62.83 s)"),
+    ({"sea_state": "jonswap", "wave_period": 3.0, "n_components": 10}, "wave_period", "wave frequencies 1.309 .. "
+     "6.02139 rad/s lie outside"),
     ({"sea_state": "choppy"}, "sea_state", "allowed: regular | jonswap"),
     ({"sea_state": "jonswap", "n_components": 6000}, "n_components", "0 (automatic) or 1 .. 5000"),
-    ({"sea_state": "jonswap", "record_length": 1e5}, "record_length", "components"),
+    ({"sea_state": "jonswap", "record_length": 1e5}, "record_length", "100000.0 s needs 31250 components at Tp = 8.0 "
+     "s (allowed: <= 5000 components: record_length <= 16000 s (or set n_components))"),
     ({"gamma": 0.5}, "gamma", ">= 1"),
 ], ids=["period-regular", "period-jonswap", "sea_state", "n_components", "record_length", "gamma"])
 def test_a_bad_wave_parameter_is_refused_naming_it(fmus, start, name, text):
@@ -263,17 +270,51 @@ def test_a_state_that_overflows_is_refused_naming_the_input(fmus):
         inst.free()
 
 
+@pytest.mark.parametrize("fmu, inputs, text", [
+    ("AbsorberFloat", {"wave_F_z": 1e9}, "state: diverged at t = 10 s (|xi|, |xi_dot| up to "),
+    ("AbsorberHydro", {"vel_z": 1e14}, "state: the radiation memory diverged at t = 10 s (allowed: a communication "
+     "step inside the coupling-stability limit (examples/point_absorber/README.md))"),
+])
+def test_a_diverging_state_is_refused_as_the_python_simulator_refuses_it(fmus, fmu, inputs, text):
+    """Beyond the simulators' divergence limits (|xi|, |xi_dot| > 1e3; memory states > 1e12): fmi2Error with their
+    message, the state left at the step's start (the step may be retried after a rollback)."""
+    inst = Instance(fmus[fmu]).initialize()
+    try:
+        inst.set(**inputs)
+        inst.expect_failure(inst.fmu.doStep, currentCommunicationPoint=0.0, communicationStepSize=10.0)
+        assert text in error_messages(inst)[-1], error_messages(inst)[-1]
+    finally:
+        inst.free()
+
+
 def test_outputs_that_overflow_are_refused_naming_the_input(fmus):
-    """A velocity whose quadratic drag overflows (1e200^2): reading the hydro's outputs is refused naming it."""
+    """A displacement whose hydrostatic force overflows (1e305 m x ~1e6 N/m): reading the hydro's outputs is
+    refused naming it (the step, which reads the velocities only, succeeds)."""
     inst = Instance(fmus["AbsorberHydro"]).initialize()
     try:
-        inst.set(vel_y=1e200, pos_x=2.0)
+        inst.set(pos_x=1e305, vel_y=2.0)
         inst.fmu.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.01)
         inst.expect_failure(inst.get, "F_y")
         message = error_messages(inst)[-1]
-        assert message.startswith("outputs: vel_y: 1e+200 makes F_y, drag_power overflow"), message
+        assert message.startswith("outputs: pos_x: 1e+305 makes F_x, ") and "overflow" in message, message
     finally:
         inst.free()
+
+
+def test_the_fmi3_wave_gives_the_fmi2_numbers(fmus, hull, tmp_path):
+    """The FMI 3.0 FMU (the same binary and model file) with its String and Int32 parameters set: bit for bit."""
+    from fmpy import simulate_fmu
+
+    from flexfmu.fmi import native
+    from flexfmu.fmi.native_build import build_native_fmu
+    spec = R.SPECS["AbsorberWave"]
+    source = native.wec_source(spec, "wave", dataclasses.asdict(spec.config_class()), hull, "AbsorberWave")
+    fmi3 = build_native_fmu(source, tmp_path / "AbsorberWave.fmu", fmi_version=3)
+    start = {"sea_state": "jonswap", "seed": 3, "n_components": 120, "ramp_time": 1.0}
+    runs = [simulate_fmu(str(f), stop_time=5.0, step_size=0.01, output_interval=0.01, start_values=start)
+            for f in (fmus["AbsorberWave"], fmi3)]
+    assert all(np.array_equal(runs[0][n], runs[1][n]) for n in R.WAVE_OUTPUTS)
+    assert np.max(np.abs(runs[0]["elevation"])) > 0.1
 
 
 def test_fmpy_validates_every_wec_fmu(fmus):

@@ -22,6 +22,7 @@ model file, binary, sources/, documentation).
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,7 @@ from flexfmu.fmi.native_build import NativeSource, build_native_fmu
 #: the point absorber's components (flexfmu.wec.absorber) as the wec kind's components (csrc/native_wec.c)
 WEC_COMPONENTS = {"AbsorberWave": "wave", "AbsorberFloat": "float", "AbsorberHydro": "hydro", "HeavePTO": "pto"}
 #: FMU specs with a native form (flexfmu.fmi.registry names), and why the others have none yet
-NATIVE_FMUS = ("FFRBeam", "ReframeBody", *WEC_COMPONENTS)
+NATIVE_FMUS = ("FFRBeam", "ReframeBody", *WEC_COMPONENTS, "Mooring")
 NOT_YET: dict = {}
 
 
@@ -88,8 +89,12 @@ def registry_source(name: str = "FFRBeam", settings: dict | None = None, *, mode
         values[key] = _parse_value(key, text, defaults[key])
     if name == "ReframeBody":
         return _reframe_source(spec, values, defaults, model_name)
+    if name == "Mooring":                       # the moordyn kind (MoorDyn's library carried beside the binary)
+        from flexfmu.fmi.native_mooring import mooring_source
+        return mooring_source(spec, values, defaults, model_name)
     if name in WEC_COMPONENTS:
-        return wec_source(spec, WEC_COMPONENTS[name], values, _absorber_hull(spec), model_name)
+        return wec_source(spec, WEC_COMPONENTS[name], values, _absorber_hull(spec), model_name,
+                          divergence_limit=getattr(spec.load(), "_DIVERGENCE_LIMIT", math.inf))
     return _ffrbeam_source(spec, values, defaults, model_name)
 
 
@@ -185,6 +190,7 @@ def _reframe_source(spec, values: dict, defaults: dict, model_name: str) -> Nati
 # ---------------------------------------------------------------------------------------------- point absorber
 _DOFS = ("x", "y", "z", "rx", "ry", "rz")
 #: each wec component's parameters, in csrc/native_wec.c's order (ROLES), and their ranges as the simulators check them
+#: (flexfmu.wec.absorber: the same texts, so both runtimes refuse a value with the same message)
 WEC_ROLES = {
     "wave": ("sea_state", "wave_height", "wave_period", "gamma", "seed", "n_components", "record_length", "ramp_time"),
     "float": ("heave_only",),
@@ -193,42 +199,42 @@ WEC_ROLES = {
 }
 _WEC_RULES = {
     "wave_height": RuntimeParameter("wave_height", 0.0, allowed=">= 0 m"),
-    "wave_period": RuntimeParameter("wave_period", 0.0, lo_open=True,
-                                    allowed="> 0 s, the components within the BEM database's frequencies"),
+    "wave_period": RuntimeParameter("wave_period", 0.0, lo_open=True, allowed="> 0 s"),
     "gamma": RuntimeParameter("gamma", 1.0, allowed=">= 1"),
-    "seed": RuntimeParameter("seed", 0.0, 2.0**31 - 1, allowed="an integer >= 0"),
+    "seed": RuntimeParameter("seed", 0.0, 2.0**31 - 1, allowed=f"0 .. {2**31 - 1}"),
     "n_components": RuntimeParameter("n_components", 0.0, 5000.0, allowed="0 (automatic) or 1 .. 5000"),
     "record_length": RuntimeParameter("record_length", 0.0, lo_open=True, allowed="> 0 s"),
-    "ramp_time": RuntimeParameter("ramp_time", allowed="a finite number of seconds (<= 0: no ramp)"),
-    "damping": RuntimeParameter("damping", 0.0, allowed=">= 0 N s/m"),
-    "stiffness": RuntimeParameter("stiffness", allowed="a finite number of N/m"),
+    "damping": RuntimeParameter("damping", 0.0, allowed=">= 0 N.s/m"),
     "force_limit": RuntimeParameter("force_limit", 0.0, allowed=">= 0 N (0: no limit)"),
     **{f"drag_coefficient_{d}": RuntimeParameter(f"drag_coefficient_{d}", 0.0, allowed=">= 0") for d in _DOFS},
-    **{f"drag_area_{d}": RuntimeParameter(f"drag_area_{d}", 0.0, allowed=">= 0 (m^2; m^5 for rotations)")
+    **{f"drag_area_{d}": RuntimeParameter(f"drag_area_{d}", 0.0, allowed=">= 0 m^2 (m^5 for a rotation)")
        for d in _DOFS},
 }
+#: the refusal of a float or hydro step beyond its divergence limit (the simulators' text)
+_WEC_DIVERGENCE = "a communication step inside the coupling-stability limit (examples/point_absorber/README.md)"
 
 
 def _absorber_hull(spec):
-    """The hull data (flexfmu.wec.absorber.hull.AbsorberHull) of a point-absorber component, through its simulator
-    module (the registry's plug-in point: fmi imports nothing of the wave converter above it)."""
-    hull = getattr(spec.load(), "absorber_hull", None)
-    if hull is None:
-        raise ParameterError("fmu", f"{spec.name}'s module {spec.module} does not name absorber_hull",
-                             "a point-absorber component (flexfmu.wec.absorber)")
-    return hull()
+    """The hull data (flexfmu.wec.absorber.hull.absorber_hull(): an AbsorberHull) of a point-absorber component: the
+    module ``hull`` beside its simulator module, named as text as the registry names the simulator (fmi imports
+    nothing of the wave converter above it; tests/test_import_structure.py's plug-in points)."""
+    import importlib
+    package = spec.module.rpartition(".")[0]
+    return importlib.import_module(f"{package}.hull").absorber_hull()
 
 
-def wec_source(spec, component: str, values: dict, hull, model_name: str) -> NativeSource:
+def wec_source(spec, component: str, values: dict, hull, model_name: str, *,
+               divergence_limit: float = math.inf) -> NativeSource:
     """A point-absorber component (``component`` of WEC_ROLES) as the wec kind (csrc/native_wec.c): the ``hull``'s
-    data (an AbsorberHull) baked into the model file, every parameter a runtime parameter (``values``: their start
-    values), so one FMU serves every sea state and PTO setting."""
+    data (an AbsorberHull, or any object with its fields) baked into the model file, every parameter a runtime
+    parameter (``values``: their start values), so one FMU serves every sea state and PTO setting;
+    ``divergence_limit``: the simulator's bound on |xi|, |xi_dot| (float) or on the memory states (hydro)."""
     roles = WEC_ROLES[component]
     defaults = dataclasses.asdict(spec.config_class())
     if set(defaults) != set(roles):
         raise ParameterError("fmu", f"{spec.name}'s parameters {sorted(defaults)} are not the wec kind's "
                              f"{component}'s", ", ".join(roles))
-    runtime = tuple(_WEC_RULES.get(name, RuntimeParameter(name, allowed="a boolean or a string")) for name in roles)
+    runtime = tuple(_WEC_RULES.get(name, RuntimeParameter(name)) for name in roles)
     M_total = np.asarray(hull.M_rb, float) + np.asarray(hull.A_inf, float)
     rad = hull.radiation
     arrays = {
@@ -243,11 +249,12 @@ def wec_source(spec, component: str, values: dict, hull, model_name: str) -> Nat
 
     def entries(inputs, outputs, params):
         fixed = [0.0 if isinstance(values[name], str) else float(values[name]) for name in roles]
-        return {"wec.component": component, "wec.fixed": np.array(fixed, float), **arrays}
+        return {"wec.component": component, "wec.fixed": np.array(fixed, float),
+                "wec.divergence_limit": np.float64(divergence_limit), **arrays}
 
     return NativeSource(
         name=model_name, description=spec.description, spec=spec, values=values, runtime=runtime, lti=None,
-        experiment=dict(spec.experiment), kind="wec", kind_entries=entries,
+        experiment=dict(spec.experiment), kind="wec", kind_entries=entries, divergence_allowed=_WEC_DIVERGENCE,
         rebuild=f"flexfmu build --runtime native --fmu {spec.name}", info={"source": f"flexfmu.fmi.registry {spec.name}"})
 
 

@@ -1,6 +1,6 @@
 /*
  * native_wec.c - the "wec" kind of the native runtime (native_kind.h): the four components of the reference point
- * absorber (docs/point_absorber.md; the lead's specification, the Python simulators in flexfmu.wec.absorber) in C:
+ * absorber (examples/point_absorber; the Python simulators in flexfmu.wec.absorber, the same equations) in C:
  *
  *   wave   AbsorberWave   elevation and excitation loads of a regular wave or a JONSWAP sea from the BEM database's
  *                         excitation X(omega) (components built here at initialisation from the runtime parameters)
@@ -23,6 +23,10 @@
  *   wec.M, wec.M_inv float64 (6, 6): M_total = M_rb + A_inf about O and its inverse (float)
  *   wec.C            float64 (6, 6) hydrostatic stiffness; wec.A_r (n, n), wec.B_r (n, 6), wec.C_r (6, n) the
  *                    radiation model; wec.rho float64 scalar (hydro)
+ *   wec.divergence_limit  float64: the largest |xi|, |xi_dot| (float) or |x_r| (hydro) of a step's result; beyond
+ *                    it the step is refused as the Python simulator refuses it ("state: ... diverged ...", with the
+ *                    model file's divergence_allowed).  The bridge's own limit (divergence_limit) stays inf: the
+ *                    float's state also holds the work, which is not bounded by it.
  *
  * States (what an FMU state holds; the bridge holds the time):
  *   wave   [t, t_anchor, h_rotation, n]: see "The wave's sum" below
@@ -61,7 +65,9 @@
 #include "native_kind.h"
 
 #define WEC_PI 3.141592653589793
-#define ANCHOR_EVERY 64     /* wave: steps between exact evaluations of the phasors */
+#ifndef ANCHOR_EVERY
+#define ANCHOR_EVERY 64 /* wave: steps between exact evaluations of the phasors (benchmarks: -D) */
+#endif
 #define DRIFT_MAX 1e-8      /* wave: largest w_max |delta| taken by the first-order correction */
 #define MAX_COMPONENTS 5000 /* wave: the largest number of components (n_components' range) */
 
@@ -151,6 +157,8 @@ typedef struct {
     long n_r;
     const double *C, *A_r, *B_r, *C_r;
     double rho;
+    double divergence_limit;
+    const char *divergence_allowed;
 } WecModel;
 
 /* The index of `name` in `names`, or -1. */
@@ -179,7 +187,14 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     int c = m->component;
     m->n_roles = count(ROLES[c]), m->n_inputs = count(INPUTS[c]), m->n_outputs = count(OUTPUTS[c]);
     long roles[1] = {m->n_roles};
-    if (native_f64(file, "wec.fixed", 1, roles, &m->fixed, NULL, why, why_size) < 0) goto fail;
+    const double *limit;
+    const NativeEntry *allowed = native_entry(file, "divergence_allowed");
+    if (native_f64(file, "wec.fixed", 1, roles, &m->fixed, NULL, why, why_size) < 0
+        || native_f64(file, "wec.divergence_limit", 0, NULL, &limit, NULL, why, why_size) < 0)
+        goto fail;
+    m->divergence_limit = *limit;
+    m->divergence_allowed
+        = allowed && allowed->type == NATIVE_STR && allowed->ndim == 0 ? ((char **)allowed->data)[0] : "a smaller step";
     for (int k = 0; k < m->n_roles; k++) m->role_param[k] = find(layout->param_names, layout->n_params, ROLES[c][k]);
     /* the FMU's inputs and outputs are the component's, by name */
     if ((size_t)m->n_inputs != layout->n_inputs || (size_t)m->n_outputs != layout->n_outputs) {
@@ -274,7 +289,8 @@ typedef struct {
     int anchor_valid, rot_valid;
     double anchor_t, rot_h, z_h; /* the anchor's time, the rotations' step, the step z was advanced by */
     long z_n;                    /* z = anchor * rot^z_n */
-    /* hydro: the step maps of step_h */
+    /* hydro: the drag rates 1/2 rho Cd_i A_i (0 without drag), the step maps of step_h */
+    double rate[6];
     int maps_valid;
     double step_h;
     double *Phi, *Gamma, *aug, *E, *expm_work, *x_new;
@@ -343,29 +359,33 @@ static int wave_init(WecSim *s, const char *sea_state, NativeResult *r) {
         return native_refuse(r, BRIDGE_ERROR, "sea_state: got '%s' (allowed: regular | jonswap)", sea_state);
     double wp = 2.0 * WEC_PI / T, dw = 0.0;
     long n = 1;
+    char shown[64], shown_T[64];
     if (jonswap) {
         n = (long)s->role[W_N];
-        if (n == 0) {
+        if (n == 0) { /* AbsorberWaveConfig's check of the automatic count */
             double automatic = ceil(2.5 * wp * s->role[W_RECORD] / (2.0 * WEC_PI));
-            if (!(automatic <= MAX_COMPONENTS))
+            if (!(automatic <= MAX_COMPONENTS)) {
+                native_repr(s->role[W_RECORD], shown, sizeof shown);
+                native_repr(T, shown_T, sizeof shown_T);
                 return native_refuse(r, BRIDGE_ERROR,
-                                     "record_length: %g s at wave_period %g s asks for %.0f components (allowed: "
-                                     "record_length <= %g s at this wave_period, or n_components 1 .. %d)",
-                                     s->role[W_RECORD], T, automatic, MAX_COMPONENTS * T / 2.5, MAX_COMPONENTS);
+                                     "record_length: %s s needs %.0f components at Tp = %s s (allowed: <= %d "
+                                     "components: record_length <= %.6g s (or set n_components))",
+                                     shown, automatic, shown_T, MAX_COMPONENTS, MAX_COMPONENTS * T / 2.5);
+            }
             n = (long)automatic;
         }
         dw = 2.5 * wp / (double)n;
     }
+    /* the components' frequencies (increasing) inside the database's, as interpolate_excitation refuses them */
     double w_first = jonswap ? 0.5 * wp + 0.5 * dw : wp, w_last = jonswap ? 0.5 * wp + ((double)n - 0.5) * dw : wp;
     double lo = m->omega[0], hi = m->omega[m->n_w - 1];
-    if (!(w_first >= lo && w_last <= hi)) {
-        /* the periods whose components are inside [lo, hi] (for jonswap with this many components) */
-        double a0 = jonswap ? 0.5 + 0.5 * 2.5 / (double)n : 1.0, a1 = jonswap ? 0.5 + ((double)n - 0.5) * 2.5 / n : 1.0;
+    if (!(w_first >= lo && w_last <= hi))
         return native_refuse(r, BRIDGE_ERROR,
-                             "wave_period: got %g s: its components at %.4g .. %.4g rad/s leave the BEM database's "
-                             "%.4g .. %.4g rad/s (allowed: %.4g .. %.4g s for %s with %ld components)",
-                             T, w_first, w_last, lo, hi, 2.0 * WEC_PI * a1 / hi, 2.0 * WEC_PI * a0 / lo, sea_state, n);
-    }
+                             "wave_period: wave frequencies %.6g .. %.6g rad/s lie outside the BEM database's "
+                             "(allowed: wave frequencies within %.6g .. %.6g rad/s: a regular period %.6g .. %.6g s; a "
+                             "JONSWAP Tp whose band 0.5 .. 3 w_p lies within it, about %.4g .. %.4g s)",
+                             w_first, w_last, lo, hi, 2.0 * WEC_PI / hi, 2.0 * WEC_PI / lo, 3.0 * 2.0 * WEC_PI / hi,
+                             0.5 * 2.0 * WEC_PI / lo);
     s->n = n;
     if (!(s->w = malloc(sizeof(double) * (size_t)n)) || !(s->phase = malloc(sizeof(double) * (size_t)n))
         || !(s->coef = malloc(sizeof(double) * 13 * (size_t)n)) || !(s->anchor_re = malloc(sizeof(double) * (size_t)n))
@@ -429,6 +449,24 @@ static void *init(const void *model, const double *params, const char *const *te
             || !(s->x_new = malloc(sizeof(double) * (n + 1)))) {
             free_sim(s);
             native_refuse(r, BRIDGE_ERROR, "out of memory");
+            return NULL;
+        }
+        int finite = 1;
+        for (int i = 0; i < 6; i++) {
+            s->rate[i] = s->role[H_DRAG] != 0.0 ? 0.5 * m->rho * s->role[H_CD + i] * s->role[H_AREA + i] : 0.0;
+            finite &= isfinite(s->rate[i]) != 0;
+        }
+        if (!finite) { /* as AbsorberHydroSimulator: the largest coefficient or area (the first of equals) */
+            int best = H_CD;
+            for (int k = H_CD; k < H_ROLES; k++)
+                if (s->role[k] > s->role[best]) best = k;
+            char shown[64];
+            native_repr(s->role[best], shown, sizeof shown);
+            native_refuse(r, BRIDGE_ERROR,
+                          "%s: %s makes the drag rate overflow (not finite) (allowed: values whose product with rho / "
+                          "2 stays within the floating-point range)",
+                          HYDRO_ROLES[best], shown);
+            free_sim(s);
             return NULL;
         }
     }
@@ -537,8 +575,10 @@ static void float_loads(const WecSim *s, const double *u, double *groups, double
     for (int i = 0; i < 6; i++) Q[i] = ((groups[i] + groups[6 + i]) + groups[12 + i]) + groups[18 + i];
 }
 
-static int float_step(WecSim *s, double *x, const double *u, double h) {
-    double groups[24], Q[6], acc[6], d[6];
+/* The step of x (the bridge's copy: kept only on success); a result not finite is NATIVE_NOT_FINITE (the bridge
+   names the input behind it), |xi| or |xi_dot| beyond the limit is refused as AbsorberFloatSimulator.step does. */
+static int float_step(WecSim *s, double *x, const double *u, double t, double h, NativeResult *r) {
+    double groups[24], Q[6], acc[6], d[6], size = 0.0;
     float_loads(s, u, groups, Q);
     float_acceleration(s, Q, acc);
     for (int i = 0; i < 6; i++) d[i] = h * x[6 + i] + 0.5 * (h * h) * acc[i];
@@ -548,6 +588,13 @@ static int float_step(WecSim *s, double *x, const double *u, double h) {
         x[12 + g] += work;
     }
     for (int i = 0; i < 6; i++) x[i] += d[i], x[6 + i] += h * acc[i];
+    for (int i = 0; i < 16; i++) {
+        if (!isfinite(x[i])) return NATIVE_NOT_FINITE;
+        if (i < 12 && fabs(x[i]) > size) size = fabs(x[i]);
+    }
+    if (size > s->m->divergence_limit)
+        return native_refuse(r, BRIDGE_ERROR, "state: diverged at t = %.6g s (|xi|, |xi_dot| up to %.3g) (allowed: %s)",
+                             t + h, size, s->m->divergence_allowed);
     return BRIDGE_OK;
 }
 
@@ -600,7 +647,7 @@ static int hydro_maps(WecSim *s, double h, NativeResult *r) {
     return BRIDGE_OK;
 }
 
-static int hydro_step(WecSim *s, double *x, const double *u, double h, NativeResult *r) {
+static int hydro_step(WecSim *s, double *x, const double *u, double t, double h, NativeResult *r) {
     const WecModel *m = s->m;
     int status = hydro_maps(s, h, r);
     if (status != BRIDGE_OK) return status;
@@ -613,15 +660,20 @@ static int hydro_step(WecSim *s, double *x, const double *u, double h, NativeRes
         for (int j = 0; j < 6; j++) sum += s->Gamma[i * 6 + j] * v[j];
         s->x_new[i] = sum;
     }
+    double size = 0.0;
+    for (int i = 0; i < n; i++) {
+        if (!isfinite(s->x_new[i])) return NATIVE_NOT_FINITE;
+        if (fabs(s->x_new[i]) > size) size = fabs(s->x_new[i]);
+    }
+    if (size > m->divergence_limit) /* as AbsorberHydroSimulator.step */
+        return native_refuse(r, BRIDGE_ERROR, "state: the radiation memory diverged at t = %.6g s (allowed: %s)", t + h,
+                             m->divergence_allowed);
     memcpy(x, s->x_new, sizeof(double) * (size_t)n);
     return BRIDGE_OK;
 }
 
 /* drag_i = 1/2 rho Cd_i A_i |v_i| v_i (0 without drag) */
-static double hydro_drag(const WecSim *s, int i, double v) {
-    if (s->role[H_DRAG] == 0.0) return 0.0;
-    return 0.5 * s->m->rho * s->role[H_CD + i] * s->role[H_AREA + i] * fabs(v) * v;
-}
+static double hydro_drag(const WecSim *s, int i, double v) { return s->rate[i] * fabs(v) * v; }
 
 static int hydro_outputs(WecSim *s, const double *x, const double *u, double *y) {
     const WecModel *m = s->m;
@@ -657,13 +709,12 @@ static int pto_outputs(WecSim *s, const double *u, double *y) {
 /* ---- the kind's functions ------------------------------------------------------------------------------------ */
 
 static int step(void *sim, double *x, const double *u, double t, double h, NativeResult *r) {
-    (void)t;
     WecSim *s = sim;
     s->last_h = h;
     switch (s->m->component) {
     case WAVE: return wave_step(s, x, h);
-    case FLOAT: return float_step(s, x, u, h);
-    case HYDRO: return hydro_step(s, x, u, h, r);
+    case FLOAT: return float_step(s, x, u, t, h, r);
+    case HYDRO: return hydro_step(s, x, u, t, h, r);
     default: return BRIDGE_OK;
     }
 }
