@@ -66,7 +66,7 @@ class FmuSpec:
 
 _WEC = {"startTime": "0", "stopTime": "20", "stepSize": "1e-3"}
 #: the point absorber: a 20-minute sea state; the step examples/point_absorber/README.md measures
-_ABSORBER = {"startTime": "0", "stopTime": "1200", "stepSize": "0.01"}
+_ABSORBER = {"startTime": "0", "stopTime": "1200", "stepSize": "0.00625"}
 
 #: Every FMU flexfmu builds (one FmuSpec each: model name, simulator, description, default experiment), in
 #: build order; ``flexfmu build`` and build_scripts/build_fmus.py make one FMU per entry.
