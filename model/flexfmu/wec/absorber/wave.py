@@ -99,7 +99,9 @@ def component_count(cfg: AbsorberWaveConfig) -> int:
         return 1
     if cfg.n_components > 0:
         return int(cfg.n_components)
-    return math.ceil(2.5 * (2 * math.pi / cfg.wave_period) * cfg.record_length / (2 * math.pi))
+    # ceil(2.5 w_p L / (2 pi)) = ceil(2.5 L / Tp), with a guard: evaluated through w_p, a whole 2.5 L / Tp rounded
+    # up to the next integer (Tp = 9 s, L = 1800 s: 501 instead of 500)
+    return math.ceil(2.5 * cfg.record_length / cfg.wave_period - 1e-9)
 
 
 def _check(cfg: AbsorberWaveConfig) -> None:
