@@ -174,6 +174,103 @@ def test_pto_equals_the_specification(fmus, limit):
         assert np.max(np.abs(got[:, 0])) == limit        # the limit is active on some steps
 
 
+# ---------------------------------------------------------------------------------------------- Python simulators
+@pytest.fixture(scope="module")
+def registry_fmus(tmp_path_factory) -> dict:
+    """The four registry FMUs built by flexfmu.fmi.native (the real hull: flexfmu.wec.absorber.hull, cached)."""
+    from flexfmu.fmi.native import WEC_COMPONENTS, build_registry_fmu
+    out = tmp_path_factory.mktemp("registry_wec")
+    return {name: build_registry_fmu(name, target=out / f"{name}.fmu") for name in WEC_COMPONENTS}
+
+
+def python_run(simulator, steps, inputs=None, input_names=()) -> np.ndarray:
+    """What ``run`` records, from a flexfmu.wec.absorber simulator."""
+    rows = []
+    for k, h in enumerate(steps):
+        if input_names:
+            simulator.set_inputs(**dict(zip(input_names, map(float, inputs[k]))))
+        simulator.step(float(h))
+        rows.append(list(simulator.outputs().values()))
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("case", [{"sea_state": "regular", "wave_height": 1.3, "wave_period": 5.1, "ramp_time": 3.0},
+                                  {"sea_state": "jonswap", "seed": 3, "n_components": 0},
+                                  {"sea_state": "jonswap", "wave_height": 3.3, "wave_period": 11.0, "gamma": 2.2,
+                                   "seed": 777, "n_components": 512, "ramp_time": -1.0}],
+                         ids=["regular", "jonswap-seed3-automatic", "jonswap-random"])
+def test_wave_equals_the_python_simulator(registry_fmus, case):
+    from flexfmu.wec.absorber import wave
+    steps = np.concatenate([np.full(2000, 0.01), np.random.default_rng(3).uniform(0.001, 0.1, 300)])
+    got = run(registry_fmus["AbsorberWave"], wave.OUTPUT_NAMES, steps, **case)
+    expected = python_run(wave.AbsorberWaveSimulator(wave.AbsorberWaveConfig(**case)), steps)
+    diff = relative(got, expected)
+    print(f"wave {case}: native vs Python {np.max(diff):.2g}")
+    assert np.max(diff) <= RTOL, dict(zip(wave.OUTPUT_NAMES, diff))
+
+
+@pytest.mark.parametrize("heave_only", [False, True])
+def test_float_equals_the_python_simulator(registry_fmus, heave_only):
+    from flexfmu.wec.absorber import float_body as fb
+    rng = np.random.default_rng(23)
+    steps = rng.uniform(0.005, 0.02, 400)
+    loads = rng.normal(size=(400, 24)) * np.tile([2e4, 2e4, 2e4, 6e4, 6e4, 6e4], 4)
+    got = run(registry_fmus["AbsorberFloat"], fb.OUTPUT_NAMES, steps, loads, fb.INPUT_NAMES, heave_only=heave_only)
+    expected = python_run(fb.AbsorberFloatSimulator(fb.AbsorberFloatConfig(heave_only)), steps, loads, fb.INPUT_NAMES)
+    diff = relative(got, expected)
+    print(f"float heave_only={heave_only}: native vs Python {np.max(diff):.2g}")
+    assert np.max(diff) <= RTOL, dict(zip(fb.OUTPUT_NAMES, diff))
+
+
+@pytest.mark.parametrize("drag", [True, False])
+def test_hydro_equals_the_python_simulator(registry_fmus, drag):
+    from flexfmu.wec.absorber import hydro
+    rng = np.random.default_rng(29)
+    params = {"drag": drag, **{n: rng.uniform(0, 2) for n in hydro.CD_NAMES},
+              **{n: rng.uniform(0, 60) for n in hydro.AREA_NAMES}}
+    motion = rng.normal(size=(400, 12)) * np.array([0.5, 0.5, 1, 0.05, 0.05, 0.05, 1, 1, 2, 0.1, 0.1, 0.1])
+    steps = np.concatenate([np.full(200, 0.01), rng.uniform(0.002, 0.05, 200)])
+    got = run(registry_fmus["AbsorberHydro"], hydro.OUTPUT_NAMES, steps, motion, hydro.INPUT_NAMES, **params)
+    expected = python_run(hydro.AbsorberHydroSimulator(hydro.AbsorberHydroConfig(**params)), steps, motion,
+                          hydro.INPUT_NAMES)
+    diff = relative(got, expected)
+    print(f"hydro drag={drag}: native vs Python {np.max(diff):.2g}")
+    assert np.max(diff) <= RTOL, dict(zip(hydro.OUTPUT_NAMES, diff))
+
+
+def test_pto_equals_the_python_simulator(registry_fmus):
+    from flexfmu.wec.absorber import pto
+    rng = np.random.default_rng(31)
+    params = {"damping": 4.2e5, "stiffness": -3.0e4, "force_limit": 2.5e5}
+    motion = rng.normal(size=(300, 2)) * [1.0, 1.0]
+    steps = np.full(300, 0.01)
+    got = run(registry_fmus["HeavePTO"], pto.OUTPUT_NAMES, steps, motion, pto.INPUT_NAMES, **params)
+    expected = python_run(pto.HeavePTOSimulator(pto.HeavePTOConfig(**params)), steps, motion, pto.INPUT_NAMES)
+    assert np.array_equal(got, expected)                 # the same few operations in the same order
+    assert np.max(np.abs(got[:, 0])) == params["force_limit"]
+
+
+@pytest.mark.parametrize("fmu, start", [
+    ("AbsorberWave", {"wave_period": 0.9}), ("AbsorberWave", {"sea_state": "jonswap", "wave_period": 70.0}),
+    ("AbsorberWave", {"sea_state": "jonswap", "record_length": 4e4}), ("AbsorberWave", {"sea_state": "swell"}),
+    ("AbsorberWave", {"seed": -1}), ("AbsorberHydro", {"drag_area_rx": -2.0}),
+    ("AbsorberHydro", {"drag_coefficient_x": 1e300, "drag_area_x": 1e300}), ("HeavePTO", {"damping": -1.0}),
+], ids=["period-regular", "period-jonswap", "record_length", "sea_state", "seed", "area", "drag-rate", "damping"])
+def test_a_bad_parameter_gives_the_python_simulators_message(registry_fmus, fmu, start):
+    """fmi2Error at fmi2ExitInitializationMode with the message the Python simulator's ParameterError has."""
+    from flexfmu.errors import ParameterError
+    from flexfmu.fmi import registry
+    spec = registry.BY_NAME[fmu]
+    with pytest.raises(ParameterError) as python:
+        spec.make_simulator(spec.config_class(**start))
+    inst = Instance(registry_fmus[fmu], **start)
+    try:
+        inst.expect_failure(inst.fmu.exitInitializationMode)
+        assert error_messages(inst)[-1] == str(python.value)
+    finally:
+        inst.free()
+
+
 # ---------------------------------------------------------------------------------------------- FMU states
 STATE_CASES = {"AbsorberWave": ({"sea_state": "jonswap", "n_components": 300}, ()),
                "AbsorberFloat": ({}, R.FLOAT_INPUTS), "AbsorberHydro": ({}, R.MOTION),
