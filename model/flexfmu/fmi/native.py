@@ -15,7 +15,8 @@ rebuild command); runtime parameters (damping_ratio, max_internal_steps, interna
 fmi2ExitInitializationMode.
 
 What each FMU is made of (a NativeSource: the spec, the values built with, the runtime parameters, the kind's model)
-is decided here, for the registry's FMUs (``registry_source``, ``build_registry_fmu``) and for exported bodies
+is decided here, for the registry's FMUs (``registry_source``, ``build_registry_fmu``; the point absorber's four
+components as the wec kind, csrc/native_wec.c: ``wec_source``, every parameter settable) and for exported bodies
 (``body_source``, ``export_native``); flexfmu.fmi.native_build makes the FMU of a NativeSource (modelDescription,
 model file, binary, sources/, documentation).
 """
@@ -255,7 +256,8 @@ def wec_source(spec, component: str, values: dict, hull, model_name: str, *,
     return NativeSource(
         name=model_name, description=spec.description, spec=spec, values=values, runtime=runtime, lti=None,
         experiment=dict(spec.experiment), kind="wec", kind_entries=entries, divergence_allowed=_WEC_DIVERGENCE,
-        rebuild=f"flexfmu build --runtime native --fmu {spec.name}", info={"source": f"flexfmu.fmi.registry {spec.name}"})
+        rebuild=f"flexfmu build --runtime native --fmu {spec.name}",
+        info={"source": f"flexfmu.fmi.registry {spec.name}"})
 
 
 def _cli_text(value) -> str:
