@@ -43,7 +43,7 @@ FMI_CSRC = HERE / "csrc"
 BUILD_INFO = "flexfmu_build.json"
 #: the C sources of a native FMU (every kind's): (folder, file) — compiled in this order, shipped in sources/
 _FRONT = ("native_front.c", "flexfmu_fmi3.c", "flexfmu_native.c", "native_kinds.c", "native_lti.c", "native_reframe.c",
-          "native_wec.c")
+          "native_wec.c", "native_moordyn.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "front_common.c", "front_common.h", "flexfmu_bridge.h", "native_kind.h",
                   "native_platform.h")
 _KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
@@ -71,6 +71,9 @@ class NativeSource:
     kind: str = "lti"
     #: the kind's entries for kinds other than "lti": a function (inputs, outputs, params) -> {name: value}
     kind_entries: object = None
+    #: the kind's own binaries (the moordyn kind: MoorDyn's library), or None: a function (binaries, missing) ->
+    #: (binaries kept, platforms missing, {archive member: bytes})
+    kind_files: object = None
     messages: list = field(default_factory=list)
     divergence_limit: float = math.inf
     divergence_allowed: str = "inputs within the model's range"
@@ -295,6 +298,7 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
 | `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
 | `native_wec.c` | the wec kind: the point absorber's wave, float, hydro and PTO (its expm from `lti_kernels.c`) |
+| `native_moordyn.c` | the moordyn kind: the Mooring's lines by MoorDyn's library, loaded from `binaries/linux64/` |
 | `step_policy.c`, `step_policy.h` | both kinds: a communication step's internal steps, refused beyond max_internal_steps |
 | `native_platform.h` | Windows: locks and the library's own path |
 | `fmi2Functions.h`, `fmi2FunctionTypes.h`, `fmi2TypesPlatform.h` | the FMI 2.0 headers |
@@ -330,12 +334,12 @@ writes `linux64` on any Linux).
   -DCMAKE_BUILD_TYPE=Release`; each followed by `cmake --build` of its folder.
 
 Without CMake: compile `native_front.c flexfmu_fmi3.c flexfmu_native.c native_kinds.c native_lti.c native_reframe.c
-native_wec.c lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
+native_wec.c native_moordyn.c lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
 named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
 symbol visibility (only the fmi2* and fmi3* functions are exported) and libm, e.g.
 `cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_fmi3.c
-flexfmu_native.c native_kinds.c native_lti.c native_reframe.c native_wec.c lti_kernels.c reframe_kernels.c
-step_policy.c -o {name}.so -lm -lpthread -ldl`.
+flexfmu_native.c native_kinds.c native_lti.c native_reframe.c native_wec.c native_moordyn.c lti_kernels.c
+reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """
@@ -454,6 +458,9 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, inte
         frozen = {k: v for k, v in built.items() if k not in runtime_names}
         model_file = write_model_file(Path(tmp) / MODEL_FILE, entries)
         binaries, missing = compile_binaries()
+        kind_files = {}
+        if source.kind_files is not None:
+            binaries, missing, kind_files = source.kind_files(binaries, missing)
         if missing:
             warnings.warn(PlatformsMissingWarning(
                 f"{target.name}: built without the binaries for " + "; ".join(
@@ -467,6 +474,7 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, inte
         members = {
             "modelDescription.xml": description,
             **{f"binaries/{p.name}/{source.name}{p.suffix}": binaries[p.name] for p in PLATFORMS if p.name in binaries},
+            **kind_files,
             f"resources/{MODEL_FILE}": model_file.read_bytes(),
             f"resources/{BUILD_INFO}": json.dumps(info, indent=1, default=str).encode(),
             "documentation/index.html": _documentation(source, frozen, binaries, missing).encode(),
