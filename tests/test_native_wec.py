@@ -196,11 +196,14 @@ def python_run(simulator, steps, inputs=None, input_names=()) -> np.ndarray:
 
 @pytest.mark.parametrize("case", [{"sea_state": "regular", "wave_height": 1.3, "wave_period": 5.1, "ramp_time": 3.0},
                                   {"sea_state": "jonswap", "seed": 3, "n_components": 0},
+                                  {"sea_state": "jonswap", "wave_period": 9.0, "record_length": 1800.0},
                                   {"sea_state": "jonswap", "wave_height": 3.3, "wave_period": 11.0, "gamma": 2.2,
                                    "seed": 777, "n_components": 512, "ramp_time": -1.0}],
-                         ids=["regular", "jonswap-seed3-automatic", "jonswap-random"])
+                         ids=["regular", "jonswap-seed3-automatic", "jonswap-whole-count", "jonswap-random"])
 def test_wave_equals_the_python_simulator(registry_fmus, case):
     from flexfmu.wec.absorber import wave
+    if case.get("record_length") == 1800.0:     # 2.5 L / Tp = 500 exactly: through w_p it would round up to 501
+        assert wave.component_count(wave.AbsorberWaveConfig(**case)) == 500
     steps = np.concatenate([np.full(2000, 0.01), np.random.default_rng(3).uniform(0.001, 0.1, 300)])
     got = run(registry_fmus["AbsorberWave"], wave.OUTPUT_NAMES, steps, **case)
     expected = python_run(wave.AbsorberWaveSimulator(wave.AbsorberWaveConfig(**case)), steps)

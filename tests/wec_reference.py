@@ -152,7 +152,7 @@ def wave_components(p: dict, hull) -> tuple:
         w, a, phi = np.array([2 * np.pi / p["wave_period"]]), np.array([p["wave_height"] / 2]), np.zeros(1)
     else:
         wp = 2 * np.pi / p["wave_period"]
-        n = p["n_components"] or math.ceil(2.5 * wp * p["record_length"] / (2 * np.pi))
+        n = p["n_components"] or math.ceil(2.5 * p["record_length"] / p["wave_period"] - 1e-9)
         dw = 2.5 * wp / n
         w = 0.5 * wp + (np.arange(n) + 0.5) * dw
         sigma = np.where(w <= wp, 0.07, 0.09)

@@ -363,7 +363,9 @@ static int wave_init(WecSim *s, const char *sea_state, NativeResult *r) {
     if (jonswap) {
         n = (long)s->role[W_N];
         if (n == 0) { /* AbsorberWaveConfig's check of the automatic count */
-            double automatic = ceil(2.5 * wp * s->role[W_RECORD] / (2.0 * WEC_PI));
+            /* ceil(2.5 w_p L / (2 pi)) = ceil(2.5 L / Tp), with AbsorberWave's guard: through w_p a whole
+               2.5 L / Tp rounds up to the next integer (Tp = 9 s, L = 1800 s: 501 for 500) */
+            double automatic = ceil(2.5 * s->role[W_RECORD] / T - 1e-9);
             if (!(automatic <= MAX_COMPONENTS)) {
                 native_repr(s->role[W_RECORD], shown, sizeof shown);
                 native_repr(T, shown_T, sizeof shown_T);
