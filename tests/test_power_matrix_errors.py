@@ -115,7 +115,7 @@ def test_some_runs_failing_exit_non_zero_and_write_the_computed_cells(tmp_path, 
     line = [x for x in captured.err.splitlines() if x.startswith("flexfmu: error: ")]
     assert len(line) == 1 and "1 of 2 co-simulations failed" in line[0], captured.err
     assert "diverged at t = 0.05 s (seed 2)" in line[0], line
-    assert _written(tmp_path) == ["m.csv", "m.png", "m_runs.csv"]
+    assert _written(tmp_path) == ["m.csv", "m.png", "m_bins.csv", "m_runs.csv"]
     with (tmp_path / "m.csv").open() as f:
         rows = list(csv.reader(f))
     assert math.isfinite(float(rows[1][1])) and float(rows[1][1]) > 0      # the cell of seed 1

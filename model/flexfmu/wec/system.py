@@ -17,10 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from flexfmu.cosim.masters import CosimResult, System, load_system, run
+from flexfmu.cosim.masters import CosimResult, System, load_system, run, with_assignments
 from flexfmu.errors import FlexfmuError, require
 from flexfmu.wec.harvester import HARVESTER_POINT_S, harvester_values, point_position
 from flexfmu.wec.hydrostatics import RADIATION_MEMORY_TERM
+from flexfmu.wec.iec import CONFIDENCE, IEC_HS_BIN_WIDTH, IEC_TE_BIN_WIDTH, MIN_RUNS_PER_BIN
 from flexfmu.wec.roles import CATEGORIES, WORK_IN, Recorded, mean_power, roster, summary_line
 from flexfmu.wec.sweeps import MAX_STEEPNESS, PowerMatrix, check_run_count, check_runs, run_tasks, write_table
 
@@ -179,47 +180,79 @@ def plot_result(result: CosimResult, system: System, path) -> Path:
 # ---------------------------------------------------------------- sweeps (serial or Dask)
 @dataclass(frozen=True)
 class Case:
-    """One co-simulation of a sweep: harvester boundary and sea state (regular: H, T; jonswap: Hs, Tp, seed)."""
+    """One co-simulation of a sweep: harvester boundary (None: the system has no harvester) and sea state (regular:
+    H, T; jonswap: Hs, Tp, seed)."""
 
-    boundary: str = "XFF"
+    boundary: str | None = "XFF"
     sea_state: str = "regular"
     wave_height: float = 0.05
     wave_period: float = 1.4
     seed: int = 1
 
 
-def run_case(system_file: str, case: Case, t_end: float, step: float | None = None, scheme: str = "gauss-seidel",
-             backend: str = "library", fmu_dir: str | None = None, average_from: float | None = None) -> dict:
-    """One co-simulation (one Dask task): the system file with the case's boundary and sea state;
-    returns one table row: the case, mean harvested power and motion amplitudes from ``average_from``
-    (default: half the run) to the end, the energy balance residual and the wall time."""
-    start = _time.perf_counter()
-    system = load_system(system_file, fmu_dir=fmu_dir)
+def case_system(system: System, case: Case, t_end: float) -> System:
+    """The system with the case's start values: the wave member's sea state (and, when it takes one, its record
+    length set to the run's length t_end, so that the record does not repeat within the run), the harvester's
+    boundary where there is a harvester."""
     members = roster(system)
-    values = harvester_values(case.boundary, members.one("harvester").config.scene)
-    values["WaveExcitation"] = {"sea_state": case.sea_state, "wave_height": float(case.wave_height),
-                                "wave_period": float(case.wave_period), "seed": int(case.seed)}
-    system = with_models(system, values)
+    harvesters = members.of_kind("harvester")
+    require(case.boundary is None or len(harvesters) == 1, "boundary", f"got {case.boundary!r} for a system "
+            f"with {len(harvesters)} harvesters", "a boundary only for a system with one harvester")
+    values = {}
+    if case.boundary is not None:
+        by_model = harvester_values(case.boundary, harvesters[0].config.scene)
+        for model, v in by_model.items():
+            found = system.by_model(model)
+            require(len(found) == 1, "SYSTEM_FILE", f"{len(found)} {model} instances", f"exactly one {model}")
+            values[found[0].name] = v
+    wave = members.one("wave")
+    values[wave.name] = {"sea_state": case.sea_state, "wave_height": float(case.wave_height),
+                         "wave_period": float(case.wave_period), "seed": int(case.seed)}
+    if "record_length" in getattr(type(wave.config), "__dataclass_fields__", {}):
+        values[wave.name]["record_length"] = float(t_end)
+    return system.with_values(values)
+
+
+def run_case(system_file: str, case: Case, t_end: float, step: float | None = None, scheme: str = "gauss-seidel",
+             backend: str = "library", fmu_dir: str | None = None, average_from: float | None = None,
+             assignments: tuple = ()) -> dict:
+    """One co-simulation (one Dask task): the system file with the start values ``assignments``
+    ("INSTANCE.VARIABLE=VALUE") and the case's (case_system); returns one table row: the case, mean harvested
+    power and motion amplitudes from ``average_from`` (default: half the run) to the end, the energy balance
+    residual and the wall time."""
+    start = _time.perf_counter()
+    system = with_assignments(load_system(system_file, fmu_dir=fmu_dir), assignments)
+    system = case_system(system, case, t_end)
+    members = roster(system)
     result = run(system, t_end, step, scheme=scheme, backend=backend)
     t_avg = 0.5 * t_end if average_from is None else average_from
     if case.sea_state == "regular":          # a whole number of periods
         n = math.floor((t_end - t_avg) / case.wave_period)
         if n >= 1:
             t_avg = t_end - n * case.wave_period
-    platform, harvester = members.one("platform").name, members.one("harvester").name
+    platform = members.one("platform").name
     sel = result.t >= t_avg - 1e-12
     amp = lambda key: 0.5 * float(np.ptp(result.columns[key][sel]))   # noqa: E731
     balance = energy_balance(result, system)
-    return {"boundary": case.boundary, "sea_state": case.sea_state, "wave_height": case.wave_height,
-            "wave_period": case.wave_period, "seed": case.seed,
-            "mean_power_W": float(harvested_power(result, system, t_avg)),
-            "heave_amplitude_m": amp(f"{platform}.pos_z"),
-            "pitch_amplitude_rad": amp(f"{platform}.rot_y"),
-            "roll_amplitude_rad": amp(f"{platform}.rot_x"),
-            "tip_velocity_amplitude_m_s": max(amp(f"{harvester}.sensor_v_{a}") for a in "xyz"),
-            "energy_residual": float(balance.relative_residual),
-            "f_1_Hz": float(result.columns[f"{harvester}.f_1"][-1]),
-            "wall_s": _time.perf_counter() - start}
+    row = {"boundary": case.boundary, "sea_state": case.sea_state, "wave_height": case.wave_height,
+           "wave_period": case.wave_period, "seed": case.seed,
+           "mean_power_W": float(harvested_power(result, system, t_avg)),
+           "average_from_s": float(result.t[sel][0]),
+           "record_length_s": getattr(members.one("wave").config, "record_length", None),
+           "heave_amplitude_m": amp(f"{platform}.pos_z"),
+           "pitch_amplitude_rad": amp(f"{platform}.rot_y"),
+           "roll_amplitude_rad": amp(f"{platform}.rot_x")}
+    if case.boundary is None:
+        del row["boundary"]
+    if row["record_length_s"] is None:
+        del row["record_length_s"]
+    for harvester in members.of_kind("harvester"):
+        row["tip_velocity_amplitude_m_s"] = max(amp(f"{harvester.name}.sensor_v_{a}") for a in "xyz")
+    row["energy_residual"] = float(balance.relative_residual)
+    for harvester in members.of_kind("harvester"):
+        row["f_1_Hz"] = float(result.columns[f"{harvester.name}.f_1"][-1])
+    row["wall_s"] = _time.perf_counter() - start
+    return row
 
 
 def run_case_or_error(system_file: str, case: Case, *args) -> dict:
@@ -228,37 +261,61 @@ def run_case_or_error(system_file: str, case: Case, *args) -> dict:
     try:
         return run_case(system_file, case, *args)
     except FlexfmuError as exc:
-        return {"boundary": case.boundary, "sea_state": case.sea_state, "wave_height": case.wave_height,
-                "wave_period": case.wave_period, "seed": case.seed, "mean_power_W": math.nan, "error": str(exc)}
+        row = {"boundary": case.boundary, "sea_state": case.sea_state, "wave_height": case.wave_height,
+               "wave_period": case.wave_period, "seed": case.seed, "mean_power_W": math.nan, "error": str(exc)}
+        if case.boundary is None:
+            del row["boundary"]
+        return row
 
 
 def sweep(system_file, cases, t_end: float, step: float | None = None, scheme: str = "gauss-seidel",
           backend: str = "library", fmu_dir=None, scheduler: str | None = None, n_workers: int = 2,
-          progress: bool = False, average_from: float | None = None, keep_going: bool = False) -> list[dict]:
+          progress: bool = False, average_from: float | None = None, keep_going: bool = False,
+          assignments=()) -> list[dict]:
     """Run each case (one co-simulation per task) and gather the rows into one table (list of dicts,
     in the order of ``cases``; flexfmu.wec.sweeps.run_tasks).  scheduler None: serially in this process (Dask
     not needed); "local": a dask.distributed LocalCluster with n_workers single-threaded worker processes;
     otherwise the address of a running Dask scheduler (e.g. "tcp://10.0.0.5:8786").
-    keep_going: a failing case gives a row with NaN power and its error (run_case_or_error)."""
+    keep_going: a failing case gives a row with NaN power and its error (run_case_or_error).
+    assignments: "INSTANCE.VARIABLE=VALUE" start values of every case (flexfmu.cosim.masters.with_assignments)."""
     system_file = str(Path(system_file).resolve())
     fmu_dir = None if fmu_dir is None else str(Path(fmu_dir).resolve())
     args = (t_end, step, scheme, backend, fmu_dir, average_from)
+    if assignments:
+        args += (tuple(str(a) for a in assignments),)
     task = run_case_or_error if keep_going else run_case
     return run_tasks(task, [(system_file, case) + args for case in cases], scheduler, n_workers, progress)
 
 
-def power_matrix(system_file, heights, periods, seeds=(1, 2, 3), t_end: float = 60.0, step: float | None = None,
-                 boundary: str = "XFF", scheme: str = "gauss-seidel", backend: str = "library", fmu_dir=None,
-                 scheduler: str | None = "local", n_workers: int = 2, average_from: float | None = None,
-                 max_steepness: float = MAX_STEEPNESS, progress: bool = False) -> PowerMatrix:
-    """Mean harvested power over a grid of significant wave height x peak period: per cell one JONSWAP
-    co-simulation per seed (the system file's WaveExcitation with sea_state jonswap), mean power from
-    ``average_from`` (default half the run) to the end, averaged over the seeds; on Dask (``sweep``:
-    scheduler "local", an address, or None for serial).  Cells steeper than ``max_steepness``
-    (2 pi Hs / (g Tp^2)) are not run.  A failing co-simulation leaves its seed out (its row keeps the
-    error); a cell whose seeds all failed stays empty."""
-    heights = np.asarray(heights, float).ravel()
-    periods = np.asarray(periods, float).ravel()
+def power_matrix(system_file, heights=None, periods=None, seeds=(1, 2, 3), t_end: float | None = None,
+                 step: float | None = None, boundary: str | None = None, scheme: str = "gauss-seidel",
+                 backend: str = "library", fmu_dir=None, scheduler: str | None = "local", n_workers: int = 2,
+                 average_from: float | None = None, max_steepness: float = MAX_STEEPNESS, progress: bool = False,
+                 assignments=(), bin_checks: bool | None = None, hs_bin_width: float = IEC_HS_BIN_WIDTH,
+                 te_bin_width: float = IEC_TE_BIN_WIDTH, min_runs: int = MIN_RUNS_PER_BIN,
+                 confidence: float = CONFIDENCE) -> PowerMatrix:
+    """Mean harvested power over a grid of significant wave height x peak period, in the manner of
+    IEC TS 62600-100 (flexfmu.wec.iec): per cell (a bin centred on its sea state: Hm0 = Hs, Te of the wave's
+    spectrum) one JONSWAP co-simulation per seed (the system's wave member with sea_state jonswap, and its record as
+    long as the run where it takes one), the runs' mean powers from ``average_from`` to the end, and per bin their
+    count, mean, std, min, max, confidence interval of the mean, the sea state's energy flux J, the capture width
+    and its ratio, and (linear configurations of the point absorber) the frequency-domain prediction; on Dask
+    (``sweep``: scheduler "local", an address, or None for serial).
+
+    The defaults come from the system (flexfmu.wec.power_study.study_defaults): the point absorber's runs are
+    20 minutes after the wave's ramp, statistics over those 20 minutes, bins checked (bin_checks) against the
+    standard's widths and min_runs seeds; the harvester's system keeps its 60 s runs, the second half and its
+    boundary (XFF), its bins unchecked unless bin_checks is True.  ``assignments`` ("INSTANCE.VARIABLE=VALUE") are
+    every run's start values.  Cells steeper than ``max_steepness`` (2 pi Hs / (g Tp^2)) are not run.  A failing
+    co-simulation leaves its seed out (its row keeps the error); a cell whose seeds all failed stays empty."""
+    from flexfmu.wec.iec import bin_edges, check_bins, spectral_measures
+    from flexfmu.wec.power_study import cell_statistics, sea_spectrum, study_defaults
+
+    loaded = with_assignments(load_system(system_file, fmu_dir=fmu_dir), assignments)
+    members = roster(loaded)
+    defaults = study_defaults(members)
+    heights = np.asarray(defaults.heights if heights is None else heights, float).ravel()
+    periods = np.asarray(defaults.periods if periods is None else periods, float).ravel()
     # refused before the seeds are made (a range of 1e9 seeds is cheap, its tuple is not)
     check_run_count(heights.size * periods.size * len(seeds), "hs, tp, seeds")
     seeds = tuple(int(s) for s in seeds)
@@ -268,22 +325,44 @@ def power_matrix(system_file, heights, periods, seeds=(1, 2, 3), t_end: float = 
             f"got {periods.tolist()}", "one or more peak periods > 0 s")
     require(len(seeds) >= 1 and len(set(seeds)) == len(seeds) and min(seeds) >= 0, "seeds", f"got {list(seeds)}",
             "one or more distinct seeds >= 0")
-    require(boundary in HARVESTER_POINT_S, "boundary", f"got {boundary!r}", " | ".join(HARVESTER_POINT_S))
+    if defaults.boundary is None:
+        require(boundary is None, "boundary", f"got {boundary!r}: the system has no harvester", "no boundary")
+    else:
+        boundary = defaults.boundary if boundary is None else boundary
+        require(boundary in HARVESTER_POINT_S, "boundary", f"got {boundary!r}", " | ".join(HARVESTER_POINT_S))
     require(max_steepness > 0, "max-steepness", f"got {max_steepness!r}", "> 0")
+    t_end = defaults.t_end if t_end is None else t_end
+    average_from = defaults.average_from if average_from is None else average_from
     # what every run would refuse, refused before the first (the CLI and library callers alike)
-    loaded = load_system(system_file, fmu_dir=fmu_dir)
     check_runs(loaded, t_end, step, backend)
-    g = roster(loaded).one("wave").config.g
+    require(average_from is None or (math.isfinite(average_from) and loaded.start_time <= average_from < t_end),
+            "average-from", f"got {average_from!r} s", f"{loaded.start_time:g} <= t < t-end = {t_end:g} s")
+    wave = members.one("wave")
+    g = wave.config.g if hasattr(wave.config, "g") else 9.81
     cells = [(i, j) for i, hs in enumerate(heights) for j, tp in enumerate(periods)
              if 2 * math.pi * hs / (g * tp * tp) <= max_steepness * (1 + 1e-12)]
+    # the sea states the runs play: their spectra, Hm0, Te and J (MHKiT), and the bins they make
+    spectra = {c: sea_spectrum(wave, heights[c[0]], periods[c[1]], t_end if defaults.record_length else None)
+               for c in cells}
+    measures = {c: spectral_measures(spectra[c]) for c in cells}
+    checked = defaults.bin_checks if bin_checks is None else bool(bin_checks)
+    if checked and cells:
+        check_bins(sorted({heights[i] for i, _ in cells}), sorted({measures[c].te for c in cells}), hs_bin_width,
+                   te_bin_width, len(seeds), min_runs)
+        for c in cells:
+            low, high = bin_edges(heights[c[0]], hs_bin_width)
+            require(low <= measures[c].hm0 < high, "hs", f"the sea state Hs {heights[c[0]]:g} m, Tp "
+                    f"{periods[c[1]]:g} s plays Hm0 = {measures[c].hm0:.4g} m, outside its bin {low:g} .. {high:g} m",
+                    "a wave whose spectrum keeps Hm0 within half a bin (--hs-bin-width) of Hs")
     cases = [Case(boundary, "jonswap", float(heights[i]), float(periods[j]), s) for i, j in cells for s in seeds]
-    power = np.full((heights.size, periods.size), np.nan)
     start = _time.perf_counter()
     rows = sweep(system_file, cases, t_end, step, scheme, backend, fmu_dir, scheduler, n_workers, progress,
-                 average_from, keep_going=True) if cases else []
-    for k, (i, j) in enumerate(cells):
-        values = [r["mean_power_W"] for r in rows[k * len(seeds):(k + 1) * len(seeds)]]
-        values = [v for v in values if np.isfinite(v)]
-        if values:
-            power[i, j] = float(np.mean(values))
-    return PowerMatrix(heights, periods, power, rows, boundary, float(t_end), seeds, _time.perf_counter() - start)
+                 average_from, keep_going=True, assignments=assignments) if cases else []
+    table = cell_statistics(loaded, members, heights, periods, cells, rows, len(seeds), spectra, measures,
+                            hs_bin_width if checked else None, te_bin_width if checked else None, min_runs,
+                            confidence)
+    return PowerMatrix(heights, periods, table.power, rows, boundary, float(t_end), seeds,
+                       _time.perf_counter() - start, bins=table.bins, ci_half_width=table.ci_half_width,
+                       energy_periods=table.energy_periods, average_from=average_from,
+                       characteristic_width=table.characteristic_width, confidence=confidence,
+                       configuration=table.configuration, bin_checks=checked)
