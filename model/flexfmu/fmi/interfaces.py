@@ -4,7 +4,8 @@ derivatives add to its modelDescription.xml (FMI 2.0 and 3.0).
 Model exchange is offered by the kinds that are ODEs in fixed coordinates (the LTI kind: FFRBeam and exported
 clamped bodies, x' = A(p) x + B(p) u + b(p), csrc/native_lti.c); the host integrates their continuous states.  Free
 bodies (the reframe kind) are co-simulation only: the reframe method is a stepping method (each step is taken in an
-inertial frame that follows the rigid-body motion), not a right-hand side.
+inertial frame that follows the rigid-body motion), not a right-hand side; so are the point-absorber components and
+the native Mooring (CO_SIMULATION_ONLY says why, in the refusal).
 
 The continuous states are the kind's state vector x (the modal coordinates eta_k of the retained modes, then their
 rates eta_dot_k): value references after the model file's variables (n_vars .. n_vars + nx - 1), their derivatives
@@ -23,8 +24,16 @@ from flexfmu.errors import ParameterError
 INTERFACES = ("cs", "me", "both")
 #: the kinds that are ODEs in fixed coordinates (model exchange) and that give exact directional derivatives
 ODE_KINDS = ("lti",)
-_FREE_BODY_NOTE = ("a free body (the reframe kind) is co-simulation only: the reframe method is a stepping method "
-                   "(each step in an inertial frame that follows the rigid-body motion), not a right-hand side")
+#: why a kind that is no ODE in fixed coordinates offers co-simulation only
+CO_SIMULATION_ONLY = {
+    "reframe": "a free body (the reframe kind) is co-simulation only: the reframe method is a stepping method (each "
+               "step in an inertial frame that follows the rigid-body motion), not a right-hand side",
+    "wec": "the point-absorber components (the wec kind) are co-simulation only: they step exactly for inputs held "
+           "over a communication step, and their right-hand sides (the float's and the radiation memory's) are not "
+           "offered as model exchange",
+    "moordyn": "the native Mooring (the moordyn kind) is co-simulation only: MoorDyn integrates its lines with its own "
+               "time steps and gives no right-hand side",
+}
 
 
 def check_interface(kind: str, interface: str) -> tuple:
@@ -34,7 +43,8 @@ def check_interface(kind: str, interface: str) -> tuple:
         raise ParameterError("interface", f"got {interface!r}", " | ".join(INTERFACES))
     types = ("cs", "me") if interface == "both" else (interface,)
     if "me" in types and kind not in ODE_KINDS:
-        raise ParameterError("interface", f"{interface}: {_FREE_BODY_NOTE}", "cs")
+        why = CO_SIMULATION_ONLY.get(kind, f"the {kind} kind is co-simulation only")
+        raise ParameterError("interface", f"{interface}: {why}", "cs")
     return types
 
 
