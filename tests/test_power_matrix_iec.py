@@ -233,6 +233,9 @@ def test_absorber_defaults_are_twenty_minutes_after_the_ramp_and_checked_bins(tm
         with pytest.raises(ParameterError) as err:
             power_matrix(ABSORBER_SYSTEM, **args)
         assert err.value.parameter == option, err.value
+    # the study's grid passes the checks (its columns' Te, equal to rounding over Hs, are one Te each)
+    with pytest.raises(AssertionError, match="a co-simulation ran"):
+        power_matrix(ABSORBER_SYSTEM, (1.0, 2.0, 3.0), (6.0, 8.0, 10.0, 12.0), scheduler=None, **SHORT)
 
 
 def _spectral_by_hand(hs, tp, length, damping):

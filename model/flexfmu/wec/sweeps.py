@@ -187,8 +187,9 @@ class PowerMatrix:
         return path
 
     def draw(self, ax, title: str | None = None) -> None:
-        """The heat map of :meth:`plot` on a matplotlib axes (its colour bar beside it); ``title`` replaces the
-        one that says what was run."""
+        """The heat map of :meth:`plot` on a matplotlib axes (its colour bar beside it), with each bin's
+        frequency-domain prediction ("FD") where the bins have one; ``title`` replaces the one that says what was
+        run."""
         self._require_a_cell()
         from matplotlib.colors import LogNorm
 
@@ -199,6 +200,7 @@ class PowerMatrix:
         norm = LogNorm(vmin=data.min(), vmax=data.max()) if data.count() and data.min() < data.max() else None
         im = ax.imshow(data, cmap="viridis", norm=norm, aspect="auto")
         half = self.ci_half_width
+        predicted = {(b["Hs_m"], b["Tp_s"]): b["spectral_power_W"] for b in self.bins if "spectral_power_W" in b}
         for i in range(nh):
             for j in range(nt):
                 p = self.power[i, j]
@@ -207,6 +209,9 @@ class PowerMatrix:
                     text = f"{p / scale:.3g}"
                     if half is not None and np.isfinite(half[i, j]):
                         text += f"\n\u00b1 {half[i, j] / scale:.2g}"
+                    fd = predicted.get((float(self.heights[i]), float(self.periods[j])))
+                    if fd is not None:
+                        text += f"\nFD {fd / scale:.3g}"
                     ax.text(j, i, text, ha="center", va="center", fontsize=8,
                             color="white" if light else "black")
         te = self.energy_periods
@@ -226,6 +231,7 @@ class PowerMatrix:
             what = f"harvester {self.boundary}" if self.boundary else (self.configuration or "")
             ci = (f"\u00b1: {100 * self.confidence:g} % confidence interval of the mean (Student t, n - 1 dof); "
                   if half is not None and np.isfinite(half).any() else "")
+            ci += "FD: frequency-domain prediction; " if predicted else ""
             title = (f"mean absorbed power ({unit}), {what}\nJONSWAP, {len(self.seeds)} seeds per cell, "
                      f"{self.t_end:g} s runs, mean over {self._window()}\n{ci}empty: not computed")
         ax.set_title(title, fontsize=8)
