@@ -218,6 +218,8 @@ class PlatformRole(Role):
     """The floating body: the work done on it by each input group, its kinetic energy, its motion."""
 
     kind = "platform"
+    #: what the summary and the chart call the body
+    label = "platform"
 
     def input_work(self, m, r, input_name):
         group = input_name.split("_", 1)[0]
@@ -233,17 +235,17 @@ class PlatformRole(Role):
 
     def summary(self, m, r, sel):
         amp = lambda v: amplitude(r.col(m.name, v), sel)   # noqa: E731
-        return [summary_line(f"platform{m.suffix} surge, sway, heave",
+        return [summary_line(f"{self.label}{m.suffix} surge, sway, heave",
                              f"{amp('pos_x'):.4g}, {amp('pos_y'):.4g}, {amp('pos_z'):.4g} m"),
-                summary_line(f"platform{m.suffix} roll, pitch, yaw", f"{math.degrees(amp('rot_x')):.4g}, "
+                summary_line(f"{self.label}{m.suffix} roll, pitch, yaw", f"{math.degrees(amp('rot_x')):.4g}, "
                              f"{math.degrees(amp('rot_y')):.4g}, {math.degrees(amp('rot_z')):.4g} deg")]
 
     def panels(self, m, r):
         c = lambda v: r.col(m.name, v)   # noqa: E731
-        return [Panel("translation", "platform translation", "m",
+        return [Panel("translation", f"{self.label} translation", "m",
                       [(c(f"pos_{a}"), {"label": label + m.suffix}) for a, label in (("z", "heave"), ("x", "surge"),
                                                                                      ("y", "sway"))]),
-                Panel("rotation", "platform rotation", "deg",
+                Panel("rotation", f"{self.label} rotation", "deg",
                       [(np.degrees(c(f"rot_{a}")), {"label": label + m.suffix})
                        for a, label in (("x", "roll"), ("y", "pitch"), ("z", "yaw"))])]
 

@@ -173,6 +173,8 @@ class AbsorberFloatRole(PlatformRole):
     """The floating body (the platform of the system): the work done on it by each input group, its kinetic
     energy, its motion."""
 
+    label = "float"
+
     def input_work(self, m, r, input_name):
         group = input_name.split("_", 1)[0]
         return r.col(m.name, f"work_{group}") if input_name in INPUT_NAMES else None
