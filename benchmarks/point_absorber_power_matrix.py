@@ -68,9 +68,12 @@ def main(argv=None) -> int:
     if args.backend == "fmu" and args.fmu_dir is None:
         import tempfile
         args.fmu_dir = Path(tempfile.mkdtemp(prefix="flexfmu_pa_matrix_"))
+        # the native Mooring fixes its MoorDyn time step at build: the file's
+        mooring = roster(load_system(OSP)).one("mooring").config
+        fixed = {"Mooring": ["--set", f"internal_time_step={mooring.internal_time_step!r}"]}
         for name in COMPONENTS:
             subprocess.run([sys.executable, "-m", "flexfmu", "build", "--runtime", "native", "--fmu", name, "--out",
-                            str(args.fmu_dir)], check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+                            str(args.fmu_dir), *fixed.get(name, [])], check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
     ramp = float(roster(load_system(OSP)).one("wave").config.ramp_time)
     t_end = ramp + args.duration
     names = [args.only] if args.only else list(CONFIGURATIONS)
@@ -83,6 +86,9 @@ def main(argv=None) -> int:
                          scheduler=None if args.serial else "local", n_workers=args.workers,
                          assignments=CONFIGURATIONS[name], progress=True)
         wall = time.perf_counter() - start
+        if not (m.power == m.power).any():
+            print(f"{name}: every run failed, e.g. {m.rows[0].get('error')}")
+            return 1
         matrices[name] = m
         stem = args.out / f"power_matrix_{name}"
         m.write_csv(stem.with_suffix(".csv"))
