@@ -158,6 +158,11 @@ def verify(extra: list[str]) -> int:
     return 0 if results and all(status == 0 for _, status in results) else 1
 
 
+#: the point absorber's native FMUs and what each fixes at build that examples/point_absorber's system file sets
+POINT_ABSORBER_NATIVE = (("AbsorberWave", []), ("AbsorberFloat", []), ("AbsorberHydro", []), ("HeavePTO", []),
+                         ("Mooring", ["--set", "internal_time_step=0.0020833333333333333"]))
+
+
 def main() -> int:
     task = sys.argv[1] if len(sys.argv) > 1 else "help"
     extra = sys.argv[2:]
@@ -184,7 +189,15 @@ def main() -> int:
                      # the wave converter on a flexible barge (docs/wave_converter.md)
                      ["examples/flexible_barge/make_barge.py", "--out", "dist"],
                      ["examples/flexible_barge/compare.py", "--t-end", "10", "--fmu-dir", "dist",
-                      "--plot", "dist/barge_vs_rigid.png"]):
+                      "--plot", "dist/barge_vs_rigid.png"],
+                     # the point absorber without Python in the host: its five native FMUs (the lines' MoorDyn step
+                     # as the system file sets it), a 20-minute JONSWAP sea state in libcosim (docs/wave_converter.md)
+                     *(["-m", "flexfmu", "build", "--runtime", "native", "--fmu", name, "--out",
+                        "dist/native/point_absorber"] + settings for name, settings in POINT_ABSORBER_NATIVE),
+                     ["-m", "flexfmu", "cosim", "examples/point_absorber/OspSystemStructure.xml", "--master", "libcosim",
+                      "--fmu-dir", "dist/native/point_absorber", "--t-end", "1200", "--every", "16",
+                      "--set", "wave.sea_state=jonswap", "--set", "wave.wave_height=2", "--set", "wave.wave_period=8",
+                      "--out", "dist/point_absorber_jonswap.csv", "--plot", "dist/point_absorber_jonswap.png"]):
             status = run(argv)
             if status:
                 return status

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Write the FMU variable tables of docs/fmu.md (flexfmu.fmi.variable_tables).
+"""Write the FMU variable tables of docs/fmu.md and docs/wave_converter.md (flexfmu.fmi.variable_tables).
 
     .venv/bin/python build_scripts/document_fmus.py [--check]
 
@@ -13,24 +13,27 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-DOC = ROOT / "docs" / "fmu.md"
 sys.path.insert(0, str(ROOT / "model"))          # a script of the source checkout, run without installing
-from flexfmu.fmi.variable_tables import render  # noqa: E402
+from flexfmu.fmi.variable_tables import DOCUMENTS, render  # noqa: E402
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if docs/fmu.md is out of date")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a document's tables are out of date")
     args = parser.parse_args(argv)
-    old = DOC.read_text(encoding="utf-8")
-    new = render(old)
-    if args.check:
-        if new != old:
-            print("docs/fmu.md: the variable tables are out of date; run build_scripts/document_fmus.py", file=sys.stderr)
-            return 1
-        return 0
-    DOC.write_text(new, encoding="utf-8")
-    return 0
+    stale = 0
+    for name, fmus in DOCUMENTS.items():
+        doc = ROOT / "docs" / name
+        old = doc.read_text(encoding="utf-8")
+        new = render(old, fmus)
+        if args.check:
+            if new != old:
+                print(f"docs/{name}: the variable tables are out of date; run build_scripts/document_fmus.py",
+                      file=sys.stderr)
+                stale = 1
+        elif new != old:
+            doc.write_text(new, encoding="utf-8")
+    return stale
 
 
 if __name__ == "__main__":

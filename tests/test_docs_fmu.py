@@ -1,4 +1,4 @@
-"""docs/fmu.md's variable tables are generated from the FMUs' VARIABLE_INFO and config defaults
+"""docs/fmu.md's and docs/wave_converter.md's variable tables are generated from the FMUs' VARIABLE_INFO and config defaults
 (flexfmu.fmi.variable_tables, written by build_scripts/document_fmus.py); this fails when a parameter, unit or
 description changed without them."""
 from pathlib import Path
@@ -9,8 +9,9 @@ DOC = Path(__file__).resolve().parents[1] / "docs" / "fmu.md"
 
 
 def test_fmu_variable_tables_are_up_to_date():
-    doc = DOC.read_text(encoding="utf-8")
-    assert variable_tables.render(doc) == doc, "run: .venv/bin/python build_scripts/document_fmus.py"
+    for name, fmus in variable_tables.DOCUMENTS.items():
+        doc = (DOC.parent / name).read_text(encoding="utf-8")
+        assert variable_tables.render(doc, fmus) == doc, f"docs/{name}: run .venv/bin/python build_scripts/document_fmus.py"
 
 
 def test_every_fmu_variable_is_in_its_table():

@@ -92,7 +92,9 @@ def add_parser(sub) -> None:
                             "native: one C-only FMU (no Python) of --fmu, its model fixed by --set at build "
                             "(docs/fmu.md, 'Native runtime')")
     build.add_argument("--fmu", default=None, metavar="NAME",
-                       help="native: the registry FMU to build: FFRBeam (default) or ReframeBody (scheme exponential)")
+                       help="native: the registry FMU to build: FFRBeam (default), ReframeBody (scheme exponential), the "
+                            "point absorber's AbsorberWave, AbsorberFloat, AbsorberHydro, HeavePTO, or Mooring "
+                            "(MoorDyn; linux64)")
     build.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                        help="native: a parameter's value, fixed at build (repeatable; e.g. --set boundary=XFX)")
     build.add_argument("--name", default=None, metavar="ID",

@@ -1,8 +1,9 @@
-"""The FMU variable tables of docs/fmu.md (Markdown), from the FMUs' variable tables (flexfmu.fmi.variables, whence
+"""The FMU variable tables of docs/fmu.md and of docs/wave_converter.md's point absorber (Markdown), from the FMUs' variable tables (flexfmu.fmi.variables, whence
 the modelDescription and the model file come too): parameters with their defaults,
 inputs and outputs with unit and description; vector components (_x/_y/_z, _1/_2/_3, q_w..q_z) share a row.
 Each table sits between ``<!-- variables:NAME -->`` and ``<!-- /variables:NAME -->``;
-build_scripts/document_fmus.py rewrites docs/fmu.md and tests/test_docs_fmu.py checks it is up to date.
+build_scripts/document_fmus.py rewrites both documents (DOCUMENTS) and tests/test_docs_fmu.py checks they are up to
+date.
 """
 from __future__ import annotations
 
@@ -14,6 +15,10 @@ from flexfmu.fmi.registry import BY_NAME, FMUS
 
 #: the FMUs whose variables docs/fmu.md tables
 DOCUMENTED = tuple(spec.name for spec in FMUS if spec.documented)
+#: the FMUs whose variables docs/wave_converter.md tables (its point-absorber section)
+POINT_ABSORBER = ("AbsorberWave", "AbsorberFloat", "AbsorberHydro", "HeavePTO", "Mooring")
+#: each generated document (relative to the repository's docs/) and the FMUs it tables
+DOCUMENTS = {"fmu.md": DOCUMENTED, "wave_converter.md": POINT_ABSORBER}
 _AXIS = re.compile(r"^(.*)_([xyzw123])$")
 _AXIS_SETS = ("xyz", "wxyz", "123")
 
@@ -62,9 +67,9 @@ def table(fmu) -> str:
     return "\n".join(lines)
 
 
-def render(doc: str) -> str:
-    """``doc`` with every documented FMU's table between its markers."""
-    for fmu in DOCUMENTED:
+def render(doc: str, fmus=DOCUMENTED) -> str:
+    """``doc`` with the table of each of ``fmus`` (default: docs/fmu.md's) between its markers."""
+    for fmu in fmus:
         start, end = f"<!-- variables:{fmu} -->", f"<!-- /variables:{fmu} -->"
         if start not in doc or end not in doc:
             raise ParameterError("doc", f"lacks the markers {start} ... {end}", "both markers of every documented FMU")
