@@ -32,7 +32,12 @@ class _Maps(ctypes.Structure):
     _fields_ = [("model", ctypes.POINTER(_Model)), ("step_valid", ctypes.c_int), ("output_valid", ctypes.c_int),
                 ("h", ctypes.c_double), ("p_step", _dp), ("p_output", _dp), ("Ad", _dp), ("Bd", _dp), ("bd", _dp),
                 ("Cx", _dp), ("Cu", _dp), ("y0", _dp), ("z", _dp), ("mono", _dp), ("x_new", _dp), ("aug", _dp),
-                ("expm_work", _dp), ("n_step_updates", ctypes.c_long), ("n_output_updates", ctypes.c_long)]
+                ("expm_work", _dp), ("n_step_updates", ctypes.c_long), ("n_output_updates", ctypes.c_long),
+                # the moving-base step (flexfmu.native.lti_taylor)
+                ("weights", _dp), ("norms", _dp), ("used", _dp), ("A_held", _dp), ("g_held", _dp),
+                ("p_taylor", _dp), ("mono_before", _dp), ("taylor_h", ctypes.c_double),
+                ("taylor_substeps", ctypes.c_int), ("taylor_terms", ctypes.c_int), ("taylor_ready", ctypes.c_int),
+                ("taylor_last", ctypes.c_int), ("n_taylor_steps", ctypes.c_long)]
 
 
 def library() -> ctypes.CDLL:
@@ -59,6 +64,12 @@ def library() -> ctypes.CDLL:
                 ("ffx_lti_outputs", c_int, [vp, vp, vp, vp, vp]),
                 ("ffx_lti_output_rows", c_int, [vp, vp, vp, vp, vp, c_int, vp]),
                 ("ffx_lti_quad_starts", c_int, [vp, vp]),
+                ("ffx_lti_balance", None, [c_int, vp, vp]),
+                ("ffx_lti_taylor_plan", c_int, [c_double, vp, vp]),
+                ("ffx_lti_taylor_tail", c_double, [c_double, c_int]),
+                ("ffx_lti_taylor_prepare", c_int, [vp, vp, vp, c_double, c_long, vp]),
+                ("ffx_lti_taylor_steps", c_int, [vp, c_long, vp, vp]),
+                ("ffx_lti_steps_held", c_int, [vp, vp, vp, c_double, c_long, vp, vp, vp]),
                 ("ffx_lti_status_string", ctypes.c_char_p, [c_int])):
             f = getattr(lib, name)
             f.restype, f.argtypes = res, args
@@ -110,10 +121,13 @@ class LtiKernel:
             raise ParameterError("model", lib.ffx_lti_status_string(status).decode())
         # argument buffers (at least one element: a valid address even when empty)
         self.x, self.u, self.p = (np.zeros(max(1, k)) for k in (model.nx, model.nu, model.np))
+        self.p_before = np.zeros(max(1, model.np))       # the p the step before held (steps_held, advance_held)
         self._x_next, self._y = np.zeros(max(1, model.nx)), np.zeros(max(1, model.ny))
         self._ax, self._au, self._ap, self._axn, self._ay = (b.ctypes.data for b in (self.x, self.u, self.p,
                                                                                      self._x_next, self._y))
+        self._apb = self.p_before.ctypes.data
         self._step, self._outputs = lib.ffx_lti_steps, lib.ffx_lti_outputs
+        self._step_held = lib.ffx_lti_steps_held
         self._nx, self._ny = model.nx, model.ny
 
     def _load(self, x, u, p) -> None:
@@ -142,6 +156,28 @@ class LtiKernel:
         if status != OK:
             raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
         return self._x_next[:self._nx].copy()
+
+    def steps_held(self, x, u, p_before, p, h: float, n: int = 1) -> np.ndarray:
+        """x after n steps h with u and p held after a step that held p_before (ffx_lti_steps_held: the series
+        for base motion that moves by little, else the maps; flexfmu.native.lti_taylor's rule)."""
+        self._load(x, u, p)
+        self._load_before(p_before)
+        status = self._step_held(self._maps_addr, self._apb, self._ap, h, n, self._ax, self._au, self._axn)
+        if status != OK:
+            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
+        return self._x_next[:self._nx].copy()
+
+    def _load_before(self, p_before) -> None:
+        n = self.model.np
+        if np.shape(p_before) != (n,):
+            raise ParameterError("p_before", f"shape {np.shape(p_before)}", f"({n},)")
+        self.p_before[:n] = p_before
+
+    def advance_held(self, h: float, n: int = 1) -> None:
+        """advance, with the buffer p_before as the p of the step before (ffx_lti_steps_held)."""
+        status = self._step_held(self._maps_addr, self._apb, self._ap, h, n, self._ax, self._au, self._ax)
+        if status != OK:
+            raise self._fail(status, "step_size" if status == BAD_ARGUMENT else "state")
 
     def advance(self, h: float, n: int = 1) -> None:
         """The buffers' x after n steps h with the buffers' u and p, in place (the per-step path of a simulator)."""
@@ -178,10 +214,21 @@ class LtiKernel:
         """(step-map recomputations, output-map recomputations) so far."""
         return int(self._maps.n_step_updates), int(self._maps.n_output_updates)
 
+    @property
+    def series_steps(self) -> int:
+        """Steps taken by the series (flexfmu.native.lti_taylor) so far."""
+        return int(self._maps.n_taylor_steps)
+
+    def weights(self) -> np.ndarray:
+        """The series' norm weights d (nx) the kernel balanced A's constant coefficient to."""
+        return np.ctypeslib.as_array(self._maps.weights, shape=(self.model.nx,)).copy()
+
 
 class LtiSimulator:
     """A minimal simulator of an LtiModel on the C kernel (FMU input vector in, outputs out): state x, time t,
-    the held inputs and the parameter-fed p (``set_parameter``, e.g. damping_ratio at run time)."""
+    the held inputs and the parameter-fed p (``set_parameter``, e.g. damping_ratio at run time).  Each step knows
+    the p the step before held (at construction: the p of the inputs then), as the native FMU's bridge does, so that
+    base motion that moves at every step goes by the series (ffx_lti_steps_held)."""
 
     def __init__(self, model):
         self.model = model
@@ -191,6 +238,7 @@ class LtiSimulator:
         self._params = {n: float(model.p_start[k]) for k, n in enumerate(model.param_names)
                         if model.p_from_input[k] < 0}
         self._split()
+        self.kernel.p_before[:model.np] = self.kernel.p[:model.np]
 
     def _split(self):
         u, p = self.model.split_inputs(self._v, self._params)
@@ -227,7 +275,8 @@ class LtiSimulator:
 
     def step(self, h: float) -> None:
         """One exact step h; the state is unchanged on failure (NonFiniteError)."""
-        self.kernel.advance(h)
+        self.kernel.advance_held(h)
+        self.kernel.p_before[:] = self.kernel.p
         self.t += h
 
     def output_vector(self) -> np.ndarray:

@@ -17,7 +17,10 @@
  * A communication step h is one exact zero-order-hold step, or with internal_step > 0 n = ceil(h /
  * internal_step) equal exact steps (as flexfmu.body.engines.ClampedEngine), refused beyond max_internal_steps
  * (fmi2Discard when a smaller communication step would do): the rule of step_policy.h (flexfmu/native/csrc).  The
- * step maps are cached in the simulator for the last (p, h) by the kernels.
+ * step maps are cached in the simulator for the last (p, h) by the kernels.  A step whose held base motion moved by
+ * little from the one the step before held (the bridge's inputs of the state's step, step_held) goes by the series
+ * of its exponential on the state instead (ffx_lti_steps_held's rule, as flexfmu.native.lti_taylor): base motion
+ * that changes at every step (a floating platform's) costs no exponential per step.
  */
 #include <math.h>
 #include <stdint.h>
@@ -43,7 +46,7 @@ typedef struct {
 typedef struct {
     const LtiModel *m;
     ffx_lti_maps maps;
-    double *work, *p, *u, *y, *params;
+    double *work, *p, *p_before, *u, *y, *params;
     int *rows; /* the y_k asked for (outputs) */
     double internal_step;
     long cap, last_split;
@@ -179,6 +182,7 @@ static void free_sim(void *sim) {
     if (!s) return;
     free(s->work);
     free(s->p);
+    free(s->p_before);
     free(s->u);
     free(s->y);
     free(s->params);
@@ -200,6 +204,7 @@ static void *init(const void *model, const double *params, const char *const *te
     LtiSim *s = calloc(1, sizeof *s);
     size_t n = ffx_lti_maps_work_len(k);
     if (!s || !(s->work = malloc(sizeof(double) * (n + 1))) || !(s->p = calloc((size_t)k->np + 1, sizeof(double)))
+        || !(s->p_before = calloc((size_t)k->np + 1, sizeof(double)))
         || !(s->u = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->y = calloc((size_t)k->ny + 1, sizeof(double)))
         || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))
         || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int)))
@@ -235,14 +240,20 @@ static void *init(const void *model, const double *params, const char *const *te
     return s;
 }
 
+/* p of the FMU inputs `in` (and the runtime parameters). */
+static void held_p(const LtiSim *s, const double *in, double *p) {
+    const LtiModel *m = s->m;
+    for (int k = 0; k < m->kernel.np; k++)
+        p[k] = m->p_from_input[k] >= 0 ? in[m->p_from_input[k]]
+               : m->p_param[k] >= 0    ? s->params[m->p_param[k]]
+                                       : m->p_start[k];
+}
+
 /* p and u of the FMU inputs `in` (and the runtime parameters). */
 static void assemble(LtiSim *s, const double *in) {
     const LtiModel *m = s->m;
     for (int k = 0; k < m->kernel.nu; k++) s->u[k] = in[m->u_from_input[k]];
-    for (int k = 0; k < m->kernel.np; k++)
-        s->p[k] = m->p_from_input[k] >= 0 ? in[m->p_from_input[k]]
-                  : m->p_param[k] >= 0    ? s->params[m->p_param[k]]
-                                          : m->p_start[k];
+    held_p(s, in, s->p);
 }
 
 /* Internal steps of a communication step h (>= 1), or 0 after refusing (step_policy.h, as ClampedEngine.split). */
@@ -288,6 +299,17 @@ static int maps_failure(LtiSim *s, double h, double hi, NativeResult *r) {
                          shown);
 }
 
+/* n internal steps hi of the communication step h by the maps (p and u assembled). */
+static int step_by_maps(LtiSim *s, double *x, double h, long n, double hi, NativeResult *r) {
+    int status = ffx_lti_update_step_maps(&s->maps, s->p, hi);
+    if (status == FFX_LTI_NONFINITE || status == FFX_LTI_SINGULAR) return maps_failure(s, h, hi, r);
+    if (status == FFX_LTI_OK) status = ffx_lti_steps(&s->maps, s->p, hi, n, x, s->u, x);
+    if (status == FFX_LTI_OK) return BRIDGE_OK;
+    if (status == FFX_LTI_BAD_ARGUMENT)
+        return native_refuse(r, BRIDGE_ERROR, "step_size: %s", ffx_lti_status_string(status));
+    return NATIVE_NOT_FINITE; /* the state overflows: the bridge names the culprit */
+}
+
 static int step(void *sim, double *x, const double *in, double t, double h, NativeResult *r) {
     LtiSim *s = sim;
     long n = split(s, t, h, r);
@@ -295,12 +317,24 @@ static int step(void *sim, double *x, const double *in, double t, double h, Nati
     assemble(s, in);
     double hi = h / (double)n;
     s->last_h = hi;
-    int status = ffx_lti_update_step_maps(&s->maps, s->p, hi);
-    if (status == FFX_LTI_NONFINITE || status == FFX_LTI_SINGULAR) return maps_failure(s, h, hi, r);
-    if (status == FFX_LTI_OK) status = ffx_lti_steps(&s->maps, s->p, hi, n, x, s->u, x);
+    return step_by_maps(s, x, h, n, hi, r);
+}
+
+/* The step, knowing the inputs the state's step held (in_before): base motion that moved by little since goes by
+   the series (ffx_lti_taylor_prepare's rule), else the maps as step(). */
+static int step_held(void *sim, double *x, const double *in_before, const double *in, double t, double h,
+                     NativeResult *r) {
+    LtiSim *s = sim;
+    long n = split(s, t, h, r);
+    if (n == 0) return r->status;
+    assemble(s, in);
+    held_p(s, in_before, s->p_before);
+    double hi = h / (double)n;
+    s->last_h = hi;
+    if (!ffx_lti_taylor_prepare(&s->maps, s->p_before, s->p, hi, n, s->u)) return step_by_maps(s, x, h, n, hi, r);
+    int status = ffx_lti_taylor_steps(&s->maps, n, x, x);
     if (status == FFX_LTI_OK) return BRIDGE_OK;
-    if (status == FFX_LTI_BAD_ARGUMENT)
-        return native_refuse(r, BRIDGE_ERROR, "step_size: %s", ffx_lti_status_string(status));
+    if (status == FFX_LTI_BAD_ARGUMENT) return native_refuse(r, BRIDGE_ERROR, "%s", ffx_lti_status_string(status));
     return NATIVE_NOT_FINITE; /* the state overflows: the bridge names the culprit */
 }
 
@@ -456,6 +490,7 @@ const NativeKind native_lti_kind = {.name = "lti",
                                     .init = init,
                                     .free_sim = free_sim,
                                     .step = step,
+                                    .step_held = step_held,
                                     .outputs = outputs,
                                     .culprit = culprit,
                                     .derivatives = derivatives,

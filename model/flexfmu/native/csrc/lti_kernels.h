@@ -9,7 +9,10 @@
  * FFX_LTI_N_MONOMIALS(np) of them) of constant coefficient matrices, so the physics is written once
  * (in Python, flexfmu.native.lti extracts the coefficients from the library's own maps) and this file only
  * evaluates it.  A step of length h is the exact zero-order hold: expm([[A B b];[0 0 0]] h), recomputed
- * only when p or h changes.  All arrays row-major doubles.  C99, libc/libm only.
+ * only when p or h changes; or, for base motion that moves by little at every step (ffx_lti_steps_held), the
+ * same exponential's Taylor series applied to the step's vector (no maps; the rule and the truncation bound:
+ * flexfmu/native/lti_taylor.py, which follows the same rule in numpy).  All arrays row-major doubles.  C99,
+ * libc/libm only.
  *
  * Monomial order (0-based p): mono[0] = 1, mono[1 + i] = p[i], then p[i] * p[j] for i = 0..np-1, j = i..np-1
  * (i outer, j inner).  Coefficient k of a matrix multiplies mono[k]: A(p) = sum_k mono[k] A[k].
@@ -74,6 +77,16 @@ typedef struct {
     double *aug, *expm_work; /* scratch: the augmented matrix and its exponential (2, n, n), n = nx + nu + 1
                                       (ffx_lti_steps' state buffers between updates), and ffx_lti_expm's workspace */
     long n_step_updates, n_output_updates;
+    /* the moving-base step (ffx_lti_taylor_prepare, ffx_lti_taylor_steps) */
+    double *weights;         /* (nx) the series' norm: balance of A's constant coefficient (ffx_lti_balance) */
+    double *norms;           /* (nmono) ||D^-1 A_k D||_inf per monomial: the weights of the change's rate */
+    double *used;            /* (6, nmono) 1 where monomial k's block of A, B, b, Cx, Cu, y0 is not all zero */
+    double *A_held, *g_held; /* (nx, nx), (nx): A(p) and B(p) u + b(p) of the prepared series step */
+    double *p_taylor;        /* (np) p of the prepared / last series step */
+    double *mono_before;     /* scratch (nmono) */
+    double taylor_h;         /* the prepared step */
+    int taylor_substeps, taylor_terms, taylor_ready, taylor_last; /* plan (s, K); prepared; last step by it */
+    long n_taylor_steps;     /* steps taken by the series */
 } ffx_lti_maps;
 
 /* 0 (FFX_LTI_OK) if the model's sizes and quadratic-term indices are consistent (nmono, 0 <= rows < ny,
@@ -145,6 +158,48 @@ int ffx_lti_outputs(ffx_lti_maps *maps, const double *p, const double *x, const 
  * output: FFX_LTI_NONFINITE if a computed one is not finite. */
 int ffx_lti_output_rows(ffx_lti_maps *maps, const double *p, const double *x, const double *u, const int *rows,
                         int n_rows, double *y);
+
+/* ---- the moving-base step (flexfmu/native/lti_taylor.py: the same rule, constants and bound) ----
+ *
+ * With p held, x' = A x + g (g = B(p) u + b(p)) and x+ = x + sum_{k>=1} w_k, w_1 = h (A x + g), w_k = (h/k) A w_{k-1}
+ * (the top rows of expm([[hA, hg]; [0, 0]]) [x; 1]).  In ||y||_D = max_i |y_i| / d_i (d = weights) with theta =
+ * ||D^-1 hA D||_inf, the terms after the K-th sum to at most tail(theta, K) ||w_1||_D, tail <= theta^K / (K+1)! /
+ * (1 - theta/(K+2)); K is the least with tail <= 2^-53 (truncation below the rounding of w_1), in s =
+ * ceil(theta / FFX_LTI_THETA_SUBSTEP) equal sub-steps.  Rule, for a step with p after p_before (the p the step
+ * before held): p = p_before, or a jump, rate = sum_k |mono_k(p) - mono_k(p_before)| norms_k / (h norms_0^2) >
+ * FFX_LTI_RATE_MAX (A's rate of change against the structure's time scale 1 / ||A_0||): the maps (one exponential,
+ * reused while p holds); else the series when n s (K nx^2 + nx) < FFX_LTI_EXPM_COST_FACTOR (nx + nu + 1)^3, else
+ * the maps.  Outputs read after a series step at its p: the rows asked for are assembled
+ * without the cache, with the arithmetic of the cached maps (the same bits). */
+#define FFX_LTI_THETA_SUBSTEP 2.5
+#define FFX_LTI_MAX_TERMS 60
+#define FFX_LTI_EXPM_COST_FACTOR 10.0
+#define FFX_LTI_RATE_MAX (1.0 / 16384.0)
+#define FFX_LTI_BALANCE_SWEEPS 20
+
+/* d (n) balancing the (n, n) matrix A (Osborne: d_i = sqrt(r_i / c_i), r_i = sum_{j != i} |a_ij| d_j, c_i =
+ * sum_{j != i} |a_ji| / d_j, FFX_LTI_BALANCE_SWEEPS sweeps in index order; zero row or column: d_i kept). */
+void ffx_lti_balance(int n, const double *A, double *d);
+
+/* The plan for theta = ||D^-1 hA D||_inf: 1 and s, K (above); 0 if theta is not finite or negative. */
+int ffx_lti_taylor_plan(double theta, int *substeps, int *terms);
+
+/* theta^K / (K+1)! / (1 - theta/(K+2)) (>= sum_{k>K} theta^(k-1) / k!), or inf for theta >= K + 2. */
+double ffx_lti_taylor_tail(double theta, int terms);
+
+/* 1 when n steps h with p held after p_before go by the series (the rule above; A(p), g and the plan then prepared
+ * in maps), else 0: take the maps (ffx_lti_steps).  p_before NULL: 0.  0 also when A(p) or g is not finite (the
+ * maps then fail with their own diagnostics). */
+int ffx_lti_taylor_prepare(ffx_lti_maps *maps, const double *p_before, const double *p, double h, long n,
+                           const double *u);
+
+/* n steps by the prepared series (n as prepared); x_next may alias x and is written only on FFX_LTI_OK
+ * (FFX_LTI_NONFINITE: the state overflows); FFX_LTI_BAD_ARGUMENT if nothing is prepared. */
+int ffx_lti_taylor_steps(ffx_lti_maps *maps, long n, const double *x, double *x_next);
+
+/* n steps with p held after p_before: the series when ffx_lti_taylor_prepare takes them, else ffx_lti_steps. */
+int ffx_lti_steps_held(ffx_lti_maps *maps, const double *p_before, const double *p, double h, long n, const double *x,
+                       const double *u, double *x_next);
 
 /* A static English description of a return code. */
 const char *ffx_lti_status_string(int status);
