@@ -227,6 +227,18 @@ class FFRBeamDynamics:
         other._fast_cache = BoundedCache(MAP_MEMO_SIZE)
         return other
 
+    def without_modal_terms(self) -> "FFRBeamDynamics":
+        """This model with the modal stiffness and damping set to zero (a shallow copy with its own map caches):
+        what the base motion adds to the maps, and the terms that do not depend on the modes' frequencies, without
+        the large Lambda (~omega^2) they would be differenced against (flexfmu.ffr.moving_base fits the maps'
+        polynomial in the held base motion on it)."""
+        other = copy.copy(self)
+        other.stiffness = np.zeros(self.m)
+        other.damping = np.zeros(self.m)
+        other._cache = BoundedCache(MAP_MEMO_SIZE)
+        other._fast_cache = BoundedCache(MAP_MEMO_SIZE)
+        return other
+
     # ------------------------------------------------------------ equations of motion
     def _matrices(self, base: BaseMotion) -> tuple[np.ndarray, np.ndarray]:
         """Modal stiffness and damping of (*) for the held base rotation."""

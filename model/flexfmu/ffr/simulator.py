@@ -41,7 +41,7 @@ from flexfmu.ffr.ffrbeam_config import (AXES, BASE_INPUTS, FORCE_INPUTS, INPUT_N
                                         N_REPORTED_FREQUENCIES, OUTPUT_NAMES, RK4_STEP_FRACTION, VARIABLE_INFO,
                                         FFRBeamConfig, _check_config)
 from flexfmu.ffr.ffrbeam_diagnostics import _DIVERGENCE_LIMIT, FFRBeamDiagnostics
-from flexfmu.native import step_policy
+from flexfmu.native import lti_taylor, step_policy
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew
 
@@ -93,6 +93,14 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         # With geometric stiffening K_eff depends on the base acceleration too: the maps are per a0 as well.
         self._held = slice(6, 15) if self.dynamics.geometric_stiffening else slice(9, 15)
         self._held_input_cache = None   # (map key, loads non-zero, u[:9]): derived once per input change
+        #: base motion that moves at every step (flexfmu.native.lti_taylor): a step whose held base motion differs
+        #: from the step's before it goes by the series of its exponential on the state, not by new maps; False:
+        #: always by the maps (one exponential per new base motion: the comparisons of tests and benchmarks)
+        self.moving_base_series = True
+        self._held_before = None        # map key of the base motion the last step held (None: no step yet)
+        self._series_last = False       # the last step went by the series (its outputs then by the polynomials)
+        self._moving_base = None        # flexfmu.ffr.moving_base.FFRBeamMovingBase, built when first needed
+        self._moving_outputs = None     # (map key, _StepMaps) of the output maps from the polynomials
 
     @property
     def time(self) -> float:
@@ -149,7 +157,10 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         maps (flexfmu.core.step_size: the error bound)."""
         if h is not None:
             h = self._steps.canonical(h)
-        key = (h, self._held_input()[0])
+        held = self._held_input()[0]
+        if h is None and self._series_last and held == self._held_before:
+            return self._series_output_maps(held)       # moving base: the polynomials, not a new fast_maps
+        key = (h, held)
         hit = self._map_cache.get(key)
         if hit is None:
             hit = self._new_maps(h, key)
@@ -168,31 +179,101 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
                     Ad, Bu, b0, C, y0, sub = self._rk4_maps(h, base)
                 else:
                     Ad, Bu, b0, C, y0 = dyn.fast_maps(h, base)
-                n = C.shape[1] - 9
-                Cx = np.zeros((len(OUTPUT_NAMES), n))
-                Cu = np.zeros((len(OUTPUT_NAMES), 9))
-                Cx[:18], Cu[:18] = C[:, :n], C[:, n:]
-                y = np.zeros(len(OUTPUT_NAMES))
-                y[:18] = y0
-                y[18:18 + N_REPORTED_FREQUENCIES] = self.frequencies_hz
-                energy = None
-                if self.static_correction is not None:
-                    energy = self._add_static_correction(Cu, y, base)
-                ok = all(np.all(np.isfinite(a)) for a in (Ad, Bu, b0, Cx, Cu, y) if a is not None) and (
-                    energy is None or all(np.all(np.isfinite(a)) for a in energy))
-                # the outputs Cx x + y0 are then finite for any state within the divergence limit: else checked
-                # per read
-                wide = not (float(np.max(np.abs(Cx), initial=0.0)) * Cx.shape[1] * _DIVERGENCE_LIMIT
-                            + float(np.max(np.abs(y)))) < 1e300
+                hit = self._assemble_maps(Ad, Bu, b0, C, y0, base, sub)
         except FlexfmuError:
             raise
         except (np.linalg.LinAlgError, ArithmeticError, ValueError):
-            ok = False
-        if not ok:
+            hit = None
+        if hit is None:
             raise self._map_failure(h, base)
-        hit = self._map_cache[key] = _StepMaps(Ad, Bu, b0 if (b0 is not None and b0.any()) else None,
-                                               np.ascontiguousarray(Cx), np.ascontiguousarray(Cu), y, energy, sub,
-                                               wide)
+        self._map_cache[key] = hit
+        return hit
+
+    def _assemble_maps(self, Ad, Bu, b0, C, y0, base, sub):
+        """The _StepMaps of FFRBeamDynamics.fast_maps' (Ad, Bu, b0, C, y0) with the frequencies and the static
+        correction for ``base``; None when they are not finite.  Called under np.errstate(all="ignore")."""
+        n = C.shape[1] - 9
+        Cx = np.zeros((len(OUTPUT_NAMES), n))
+        Cu = np.zeros((len(OUTPUT_NAMES), 9))
+        Cx[:18], Cu[:18] = C[:, :n], C[:, n:]
+        y = np.zeros(len(OUTPUT_NAMES))
+        y[:18] = y0
+        y[18:18 + N_REPORTED_FREQUENCIES] = self.frequencies_hz
+        energy = None
+        if self.static_correction is not None:
+            energy = self._add_static_correction(Cu, y, base)
+        ok = all(np.all(np.isfinite(a)) for a in (Ad, Bu, b0, Cx, Cu, y) if a is not None) and (
+            energy is None or all(np.all(np.isfinite(a)) for a in energy))
+        if not ok:
+            return None
+        # the outputs Cx x + y0 are then finite for any state within the divergence limit: else checked per read
+        wide = not (float(np.max(np.abs(Cx), initial=0.0)) * Cx.shape[1] * _DIVERGENCE_LIMIT
+                    + float(np.max(np.abs(y)))) < 1e300
+        return _StepMaps(Ad, Bu, b0 if (b0 is not None and b0.any()) else None, np.ascontiguousarray(Cx),
+                         np.ascontiguousarray(Cu), y, energy, sub, wide)
+
+    # ---- moving base: the series step and the polynomial output maps (flexfmu.native.lti_taylor)
+    def _moving_model(self):
+        if self._moving_base is None:
+            from flexfmu.ffr.moving_base import FFRBeamMovingBase      # on first use: a fixed base never needs it
+            self._moving_base = FFRBeamMovingBase(self.dynamics, self._output_values)
+        return self._moving_base
+
+    def _output_values(self, dynamics, base) -> np.ndarray:
+        """[Cx, Cu, y] of the output maps of ``dynamics`` for ``base`` as one vector (the static correction's
+        energy apart: degree 4 in omega): what the moving base's polynomial interpolates."""
+        _, _, _, C, y0 = dynamics.fast_maps(None, base)
+        with np.errstate(all="ignore"):
+            maps = self._assemble_maps(None, None, None, C, y0, base, None)
+        return np.concatenate([maps.Cx.ravel(), maps.Cu.ravel(), maps.y0])
+
+    def _series_step(self, h: float, held) -> bool:
+        """One exact step by the series when flexfmu.native.lti_taylor's rule takes it (False: take the maps);
+        the state is that of the step's start on failure (the maps then name the input, as a step by them would)."""
+        u, st = self._u, self.state
+        t = st.t + h
+        with np.errstate(all="ignore"):
+            prepared = self._moving_model().system.prepare(u[self._held], np.array(self._held_before), h, u[:9])
+            if prepared is None:
+                return False
+            A, g, plan = prepared
+            x = lti_taylor.taylor_steps(A, g, self._stacked(), h, plan)
+            if not (float(x @ x) <= _DIVERGENCE_LIMIT ** 2 and t < _INF):
+                size = float(np.max(np.abs(x)))
+                if not np.isfinite(size) or size > _DIVERGENCE_LIMIT or not math.isfinite(t):
+                    maps = self._maps(h)
+                    raise self._divergence(t, size, maps.Ad, maps.Bu, maps.b0)
+        m = st.eta.shape[0]
+        self.state = ModalState(x[:m], x[m:], t)
+        self._x, self._x_state = x, self.state
+        self._held_before, self._series_last = held, True
+        return True
+
+    def _series_output_maps(self, held) -> _StepMaps:
+        """The output maps of the held base motion from the polynomials (one product, no fast_maps), kept for
+        that motion only (moving base: it is not seen again)."""
+        if self._moving_outputs is not None and self._moving_outputs[0] == held:
+            return self._moving_outputs[1]
+        mb = self._moving_model()
+        p = self._u[self._held]
+        ny, nx = len(OUTPUT_NAMES), 2 * mb.m
+        with np.errstate(all="ignore"):
+            v = mb.outputs(p)
+            ok = bool(np.isfinite(v).all())
+            energy = None
+            if self.static_correction is not None and ok:
+                xab = self.static_correction_weights(mb.base(p))
+                Q = self.static_correction.energy
+                energy = (0.5 * Q[:9, :9], Q[:9, 9:] @ xab, 0.5 * float(xab @ Q[9:, 9:] @ xab))
+                ok = all(np.all(np.isfinite(a)) for a in energy)
+            if ok:
+                Cx, Cu, y = v[:ny * nx].reshape(ny, nx), v[ny * nx:ny * (nx + 9)].reshape(ny, 9), v[ny * (nx + 9):]
+                wide = not (float(np.abs(Cx).max(initial=0.0)) * nx * _DIVERGENCE_LIMIT + float(np.abs(y).max())
+                            ) < 1e300
+        if not ok:
+            raise self._map_failure(None, mb.base(p))
+        hit = _StepMaps(None, None, None, Cx, Cu, y, energy, None, wide)
+        self._moving_outputs = (held, hit)
         return hit
 
     @staticmethod
@@ -216,6 +297,7 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         other._steps = StepSizes()
         other._x, other._x_state = None, None
         other._held_input_cache = None
+        other._moving_base, other._moving_outputs = None, None      # the polynomials hold the damping
         return other
 
     def lti_probe(self):
@@ -274,6 +356,10 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         cached maps)."""
         if not (math.isfinite(step_size) and step_size > 0):     # math: np.isfinite costs ~1 us per call
             require(False, "step_size", f"got {step_size!r}", "> 0 s")
+        held = self._held_input()[0]
+        if (self._held_before is not None and held != self._held_before and self.moving_base_series
+                and self.dynamics.integrator == "exact" and self._series_step(float(step_size), held)):
+            return
         maps = self._maps(float(step_size))
         Ad, Bu, b0, sub = maps.Ad, maps.Bu, maps.b0, maps.substeps
         if sub is not None and sub[0] != self._n_sub:
@@ -301,6 +387,7 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
                 raise self._divergence(t, size, Ad, Bu, b0)          # the state is still that of the step's start
         self.state = ModalState(x[:m], x[m:], t)
         self._x, self._x_state = x, self.state
+        self._held_before, self._series_last = held, False
 
     def _stacked(self) -> np.ndarray:
         """[eta; eta_dot] of self.state (kept from the last step unless the state was replaced)."""
@@ -362,7 +449,11 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
     # ---- state for FMI get/set/serialize: plain JSON-able data
     def get_state(self) -> dict:
         return {"eta": self.state.eta.tolist(), "eta_dot": self.state.eta_dot.tolist(), "t": self.state.t,
-                "inputs": dict(self.inputs), "config": asdict(self.config)}
+                "inputs": dict(self.inputs), "config": asdict(self.config),
+                # what the next step compares its base motion with, and how the last step went (the outputs'
+                # maps): a restored state steps and reads as the original did, bit for bit
+                "held_before": None if self._held_before is None else list(self._held_before),
+                "series_last": self._series_last}
 
     def set_state(self, data: dict) -> None:
         require(data.get("config") == asdict(self.config), "FMUstate", "was taken with other parameters",
@@ -376,3 +467,7 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         self.inputs = dict(data["inputs"])
         self._u = np.array([self.inputs[name] for name in INPUT_NAMES], dtype=float)
         self._held_input_cache = None
+        before = data.get("held_before")           # absent from a state of an older version: as before any step
+        self._held_before = None if before is None else tuple(float(v) for v in before)
+        self._series_last = bool(data.get("series_last", False)) and self._held_before is not None
+        self._moving_outputs = None
