@@ -9,6 +9,7 @@ the modal force and the outputs are affine in the state and the loads too (bar t
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +19,7 @@ from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.step_size import StepSizes
 from flexfmu.core.vec3 import cross, skew
+from flexfmu.native import lti_taylor
 
 #: step maps memoised per instance (key: step size, w, alpha); starts afresh when full (inputs varying every step)
 MAP_MEMO_SIZE = 65
@@ -43,6 +45,17 @@ class ClampedDynamics:
         self.J0 = inv["J0"]
         self._maps = BoundedCache(MAP_MEMO_SIZE)
         self._steps = StepSizes()              # the step sizes of the maps' keys (flexfmu.core.step_size)
+
+    def without_modal_terms(self) -> "ClampedDynamics":
+        """This model with the eigenvalues and the damping set to zero (a shallow copy with its own caches): what
+        the base rotation adds to (B2) and to the held maps, without the large omega^2 they would be differenced
+        against (MovingBase fits the maps' polynomial in the rotation on it)."""
+        other = copy.copy(self)
+        other.lam = np.zeros(self.m)
+        other.damping = np.zeros(self.m)
+        other._maps = BoundedCache(MAP_MEMO_SIZE)
+        other._steps = StepSizes()
+        return other
 
     # ---------------------------------------------------------------- (B2)
     def matrices(self, w, alpha):
@@ -254,3 +267,35 @@ class HeldMaps:
     y0: np.ndarray
     moment_arm: np.ndarray
     moment: slice
+
+
+class MovingBase:
+    """(B2) and the held maps as polynomials of degree <= 2 in the held base rotation p = (w, alpha) (rad/s,
+    rad/s^2, body frame), for the moving-base step (flexfmu.native.lti_taylor): K and C are linear in alpha, w and
+    w w^T, the modal force's force0 and every held map (ClampedDynamics.held_maps) too.  At p = 0 they are the
+    model's own; the rest is fitted (flexfmu.native.lti_taylor.HeldPolynomial) on the model without its eigenvalues
+    and damping (ClampedDynamics.without_modal_terms), so nothing of size omega^2 is differenced.  ``output_values
+    (dynamics, w, alpha)``: the engine's output maps of the held rotation as one vector."""
+
+    N_P = 6
+
+    def __init__(self, dynamics: ClampedDynamics, output_values):
+        dyn = dynamics
+        self.m = dyn.m
+        zero = dyn.without_modal_terms()
+        rest = np.zeros(self.N_P)
+        self.step = lti_taylor.HeldPolynomial.from_samples(lambda p: self._step_values(zero, p), self.N_P,
+                                                           self._step_values(dyn, rest))
+        self.outputs = lti_taylor.HeldPolynomial.from_samples(lambda p: output_values(zero, p[:3], p[3:]),
+                                                              self.N_P, output_values(dyn, rest[:3], rest[3:]))
+        at_rest = dyn.held_maps(rest[:3], rest[3:])
+        #: the parts of the held maps that do not depend on the rotation
+        self.force, self.moment_arm, self.moment = at_rest.force, at_rest.moment_arm, at_rest.moment
+        #: x' = A x + g, g = [0; force ul + force0(p)] (flexfmu.native.lti_taylor.HeldSystem: the rule)
+        self.system = lti_taylor.HeldSystem(self.step, self.force)
+
+    @staticmethod
+    def _step_values(dyn, p) -> np.ndarray:
+        w, alpha = p[:3], p[3:]
+        force0 = dyn.modal_force(np.zeros((len(dyn.rows), 6)), np.zeros(3), w, alpha)
+        return np.concatenate([dyn.system_matrix(w, alpha).ravel(), force0])

@@ -10,13 +10,13 @@ import math
 
 import numpy as np
 
-from flexfmu.body.clamped_dynamics import MAP_MEMO_SIZE, ClampedDynamics, HeldMaps
+from flexfmu.body.clamped_dynamics import MAP_MEMO_SIZE, ClampedDynamics, HeldMaps, MovingBase
 from flexfmu.body.free import FreeDynamics
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.checks import MIN_COMMUNICATION_STEP, culprit
 from flexfmu.core.rotation import rotation_matrix
 from flexfmu.errors import NonFiniteError, ParameterError
-from flexfmu.native import step_policy
+from flexfmu.native import lti_taylor, step_policy
 from flexfmu.reframe.layout import output_layout
 from flexfmu.reframe.modeldata import RK4_STABILITY_LIMIT
 
@@ -168,7 +168,10 @@ class ClampedEngine:
 
     Per step and output read only matrix-vector products: the modal force and the outputs are affine maps of the
     load vector ul = [F, M per interface, a0] (a prefix of the inputs) and x for the held base rotation
-    (ClampedDynamics.held_maps, cached per (w, alpha) as the step maps are per (h, w, alpha))."""
+    (ClampedDynamics.held_maps, cached per (w, alpha) as the step maps are per (h, w, alpha)).  A step whose held
+    rotation differs from the step's before it (a base that moves at every step) goes instead by the series of its
+    exponential on the state (flexfmu.native.lti_taylor's rule, as the native kernel), its outputs by the held
+    maps' polynomial in the rotation (MovingBase): no new exponential or held maps per step."""
 
     def __init__(self, body, config, zeta: float, names):
         self.names = list(names)
@@ -191,6 +194,12 @@ class ClampedEngine:
         self._frequencies = np.asarray(body.natural_frequencies_hz, dtype=float)
         self._n_outputs = 9 * len(ifs) + 6              # before the frequencies
         self._held_maps = BoundedCache(MAP_MEMO_SIZE)
+        #: False: every step by the maps (one exponential per new rotation: the comparisons of tests and benchmarks)
+        self.moving_base_series = True
+        self._held_before = None        # (w, alpha) the last step held (None: no step yet)
+        self._series_last = False       # the last step went by the series (its outputs then by the polynomials)
+        self._moving_base = None        # MovingBase, built when the rotation first moves
+        self._moving_outputs = None     # ((w, alpha), HeldMaps) from the polynomials
         self.hold(np.zeros(self.n_loads + 6))
 
     def hold(self, u: np.ndarray) -> None:
@@ -220,19 +229,67 @@ class ClampedEngine:
         return np.array(self._alpha_key)
 
     def _maps(self) -> HeldMaps:
+        """The HeldMaps of the held base rotation for the outputs: after a step by the series with this rotation
+        from the polynomials, else exact_maps."""
+        key = self._w_key + self._alpha_key
+        if self._series_last and key == self._held_before:
+            return self._series_output_maps(key)
+        return self.exact_maps()
+
+    def exact_maps(self) -> HeldMaps:
         """The HeldMaps of the held base rotation (cached), their outputs followed by the natural frequencies
         (constant rows): output_vector in one product."""
         key = self._w_key + self._alpha_key
         hit = self._held_maps.get(key)
         if hit is None:
             with np.errstate(all="ignore"):          # a huge rotation: found by value in the step and the outputs
-                maps = self.dyn.held_maps(self._w_key, self._alpha_key)
-            nf = self._frequencies.size
-            hit = self._held_maps[key] = dataclasses.replace(
-                maps, Cx=np.vstack([maps.Cx, np.zeros((nf, maps.Cx.shape[1]))]),
-                Cu=np.vstack([maps.Cu, np.zeros((nf, maps.Cu.shape[1]))]),
-                y0=np.concatenate([maps.y0, self._frequencies]))
+                hit = self._held_maps[key] = self._with_frequencies(self.dyn, self._w_key, self._alpha_key)
         return hit
+
+    def _with_frequencies(self, dyn, w, alpha) -> HeldMaps:
+        maps = dyn.held_maps(w, alpha)
+        nf = self._frequencies.size
+        return dataclasses.replace(maps, Cx=np.vstack([maps.Cx, np.zeros((nf, maps.Cx.shape[1]))]),
+                                   Cu=np.vstack([maps.Cu, np.zeros((nf, maps.Cu.shape[1]))]),
+                                   y0=np.concatenate([maps.y0, self._frequencies]))
+
+    # ---- moving base (flexfmu.native.lti_taylor)
+    def _output_values(self, dyn, w, alpha) -> np.ndarray:
+        maps = self._with_frequencies(dyn, w, alpha)
+        return np.concatenate([maps.Cx.ravel(), maps.Cu.ravel(), maps.y0])
+
+    def _moving_model(self) -> MovingBase:
+        if self._moving_base is None:
+            with np.errstate(all="ignore"):
+                self._moving_base = MovingBase(self.dyn, self._output_values)
+        return self._moving_base
+
+    def _series_advance(self, h: float, n: int, key) -> bool | None:
+        """n exact steps h / n by the series when flexfmu.native.lti_taylor's rule takes them (None: take the
+        maps); False when the state overflows (kept)."""
+        prepared = self._moving_model().system.prepare(np.array(key), np.array(self._held_before), h / n,
+                                                       self._loads_held, n)
+        if prepared is None:
+            return None
+        A, g, plan = prepared
+        x = lti_taylor.taylor_steps(A, g, self.x, h / n, plan, n)
+        if not x.dot(x) < math.inf and not np.all(np.isfinite(x)):
+            return False
+        self.x, self.t = x, self.t + h
+        self._held_before, self._series_last = key, True
+        return True
+
+    def _series_output_maps(self, key) -> HeldMaps:
+        if self._moving_outputs is not None and self._moving_outputs[0] == key:
+            return self._moving_outputs[1]
+        mb = self._moving_model()
+        v = mb.outputs(np.array(key))
+        ny, nx, nl = self._n_outputs + self._frequencies.size, 2 * self.dyn.m, self.n_loads
+        force0 = mb.step(np.array(key))[nx * nx:]
+        maps = HeldMaps(mb.force, force0, v[:ny * nx].reshape(ny, nx), v[ny * nx:ny * (nx + nl)].reshape(ny, nl),
+                        v[ny * (nx + nl):], mb.moment_arm, mb.moment)
+        self._moving_outputs = (key, maps)
+        return maps
 
     def split(self, h: float):
         if self.internal_step == 0:
@@ -252,8 +309,13 @@ class ClampedEngine:
     def advance(self, h: float, n: int) -> bool:
         """Step by h in n exact steps; False (the state kept) when the state overflows.  Called under
         np.errstate(all="ignore") (FlexBodySimulator.step): overflow is found by value."""
+        key = self._w_key + self._alpha_key
+        if self._held_before is not None and key != self._held_before and self.moving_base_series:
+            done = self._series_advance(h, n, key)
+            if done is not None:
+                return done
         Ad, Bd = self.dyn.transition(h / n, self._w_key, self._alpha_key)
-        maps = self._maps()
+        maps = self.exact_maps()
         r = maps.force @ self._loads_held                   # right side of (B2)
         r += maps.force0
         b = Bd @ r
@@ -265,6 +327,7 @@ class ClampedEngine:
         if not x.dot(x) < math.inf and not np.all(np.isfinite(x)):
             return False
         self.x, self.t = x, self.t + h
+        self._held_before, self._series_last = key, False
         return True
 
     def output_vector(self, include_deferred: bool = True) -> np.ndarray:
@@ -295,10 +358,18 @@ class ClampedEngine:
         return np.concatenate([motion.ravel(), F, M])
 
     def get(self) -> dict:
-        return {"t": self.t, "x": self.x.tolist()}
+        # held_before, series_last: what the next step compares its rotation with and how the last step went (the
+        # outputs' maps), so that a restored state steps and reads as the original did, bit for bit
+        return {"t": self.t, "x": self.x.tolist(),
+                "held_before": None if self._held_before is None else list(self._held_before),
+                "series_last": self._series_last}
 
     def put(self, data: dict) -> None:
         x = np.array(data["x"], dtype=float)
         if x.shape != self.x.shape or not np.all(np.isfinite(x)) or not math.isfinite(float(data["t"])):
             raise ParameterError("FMUstate", "state of the wrong size or not finite", "a state of this body")
         self.x, self.t = x, float(data["t"])
+        before = data.get("held_before")          # absent from a state of an older version: as before any step
+        self._held_before = None if before is None else tuple(float(v) for v in before)
+        self._series_last = bool(data.get("series_last", False)) and self._held_before is not None
+        self._moving_outputs = None
