@@ -22,9 +22,6 @@ import numpy as np
 from flexfmu.ffr.dynamics import BaseMotion
 from flexfmu.native import lti_taylor
 
-#: FFRBeam's u of the series: F, M, a0 (body frame), the first nine inputs
-N_LOADS = 9
-
 
 class FFRBeamMovingBase:
     """The polynomials of one FFRBeamDynamics (built once per simulator, when the base motion first moves)."""
@@ -34,7 +31,7 @@ class FFRBeamMovingBase:
         assembly of fast_maps), a polynomial of degree <= 2 in p."""
         dyn = dynamics
         self.geometric_stiffening = dyn.geometric_stiffening
-        self.m = m = dyn.m
+        self.m = dyn.m
         self.n_p = 9 if self.geometric_stiffening else 6
         zero = dyn.without_modal_terms()
         rest = np.zeros(self.n_p)
