@@ -22,8 +22,10 @@ it measured, ~1e-15 for FFRBeam and the clamped bodies of tests/test_native_lti.
 The strain energy of FFRBeam's static correction, 1/2 X_ab^T R X_ab with X = [alpha]x + [omega]x^2, is of degree 4
 in p: it is carried as terms mono_a mono_b of the quadratic output part (z holds mono(p) for that).
 
-The step is the exact zero-order hold (expm of the augmented matrix, csrc/lti_kernels.c); FFRBeam's integrator "rk4"
-has no native form (ParameterError naming ``integrator``).
+The step is the exact zero-order hold (expm of the augmented matrix, csrc/lti_kernels.c), or for base motion that
+moves by little at every step the same exponential's Taylor series on the step's vector (ffx_lti_steps_held; the rule
+and its bound: flexfmu.native.lti_taylor); FFRBeam's integrator "rk4" has no native form (ParameterError naming
+``integrator``).
 """
 from __future__ import annotations
 
@@ -276,8 +278,8 @@ def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
     pts = sample_points(probe.offsets)
     dyn = [probe.dynamics(p) for p in pts]
     outs = [probe.output_maps(p) for p in pts]
-    A, B, b = (fit_quadratic(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
-    Cx, Cu, y0 = (fit_quadratic(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
+    A, B, b = (_fit(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
+    Cx, Cu, y0 = (_fit(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
     nx, nu, ny = A.shape[1], B.shape[2], y0.shape[1]
 
     mono_terms = []                                   # (row, a, b, v) over mono indices
@@ -351,6 +353,20 @@ def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
                             f"{', '.join(probe.param_names)} (relative differences {model.fit_error}): "
                             "flexfmu.native.lti's contract does not hold for this model")
     return model
+
+
+def _fit(values: np.ndarray, offsets) -> np.ndarray:
+    """fit_quadratic of ``values`` with the coefficients that are rounding set to zero: a coefficient is a fixed
+    combination sum_j w_kj values_j of the samples, so one within 64 eps of sum_j |w_kj| |values_j| (what the rounding
+    of the samples and of the combination can make of a zero) is taken as zero, as the quadratic output terms are.
+    A monomial the maps do not depend on (base_w * base_dw, ...) then has an all-zero block, which the kernel skips
+    (csrc/lti_kernels.c: the 'used' flags): about half of FFRBeam's."""
+    coefficients = fit_quadratic(values, offsets)
+    n_points = values.shape[0]
+    weights = fit_quadratic(np.eye(n_points), offsets)              # (nmono, n_points): the combinations
+    scale = np.tensordot(np.abs(weights), np.abs(values), axes=1)
+    coefficients[np.abs(coefficients) <= 64.0 * _EPS * scale] = 0.0
+    return coefficients
 
 
 def _rel(a, b) -> float:

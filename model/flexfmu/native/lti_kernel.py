@@ -35,7 +35,7 @@ class _Maps(ctypes.Structure):
                 ("expm_work", _dp), ("n_step_updates", ctypes.c_long), ("n_output_updates", ctypes.c_long),
                 # the moving-base step (flexfmu.native.lti_taylor)
                 ("weights", _dp), ("norms", _dp), ("used", _dp), ("A_held", _dp), ("g_held", _dp),
-                ("p_taylor", _dp), ("mono_before", _dp), ("taylor_h", ctypes.c_double),
+                ("p_taylor", _dp), ("mono_before", _dp), ("a_cols", _dp), ("taylor_h", ctypes.c_double),
                 ("taylor_substeps", ctypes.c_int), ("taylor_terms", ctypes.c_int), ("taylor_ready", ctypes.c_int),
                 ("taylor_last", ctypes.c_int), ("n_taylor_steps", ctypes.c_long)]
 

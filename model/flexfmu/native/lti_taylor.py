@@ -297,12 +297,15 @@ class HeldSystem:
         #: ||D^-1 A_k D||_inf per monomial in use: the change delta's weights
         self.norms = np.array([scaled_norm(step.coefficient(j)[:nx * nx].reshape(nx, nx), self.weights)
                                for j in range(step.used.size)])
+        self._last = (None, None)        # (p, its monomials) of the last prepare
 
     def prepare(self, p, p_before, h: float, loads, n_steps: int = 1):
         """(A, g, plan) for n_steps steps h by the series with p held after p_before, or None: the maps (p equals
         p_before, a jump, or a new exponential is cheaper)."""
         mono = self.step.monomials(p)
-        rate = change_rate(mono, self.step.monomials(p_before), self.norms, h)
+        before = self._last[1] if np.array_equal(self._last[0], p_before) else self.step.monomials(p_before)
+        self._last = (np.array(p, dtype=float), mono)     # the next step's p_before, usually
+        rate = change_rate(mono, before, self.norms, h)
         if not 0.0 < rate <= RATE_MAX:
             return None
         nx = self.nx

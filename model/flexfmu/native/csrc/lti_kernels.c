@@ -49,7 +49,8 @@ static void matvec_add(const double *M, const double *v, const double *add, int 
     for (; i < rows; i++) to[i] = dot(M + (size_t)i * n, v, n) + add[i];
 }
 
-/* to[i] = sum_j M[i][j] v[j] (M (rows, n) row-major), four rows at a time as matvec_add. */
+/* to[i] = sum_j M[i][j] v[j] (M (rows, n) row-major), four rows at a time as matvec_add (the series' products:
+ * latency-bound like the step's, so the four independent sums matter more than skipping A's zeros). */
 static void matvec(const double *M, const double *v, int rows, int n, double *to) {
     int i = 0, j;
     for (; i + 4 <= rows; i += 4) {
@@ -516,6 +517,18 @@ static void moving_base_init(ffx_lti_maps *maps) {
         }
     }
     if (nx == 0) return;
+    for (e = 0; e < nx; e++) { /* the columns of row e that any A_k fills */
+        size_t lo = nx, hi = 0, j;
+        for (k = 0; k < nmono; k++)
+            for (j = 0; j < nx; j++)
+                if (m->A[(k * nx + e) * nx + j] != 0.0) {
+                    if (j < lo) lo = j;
+                    if (j + 1 > hi) hi = j + 1;
+                }
+        if (hi == 0) lo = 0;
+        maps->a_cols[e] = (double)lo;
+        maps->a_cols[nx + e] = (double)hi;
+    }
     ffx_lti_balance((int)nx, m->A, maps->weights);
     for (k = 0; k < nmono; k++) maps->norms[k] = scaled_norm((int)nx, m->A + k * nx * nx, maps->weights);
 }
@@ -536,7 +549,8 @@ size_t ffx_lti_maps_work_len(const ffx_lti_model *m) {
            + ffx_lti_expm_work_len((int)n)
            + nx + nmono + 6 * nmono /* weights, norms, used */
            + nx * nx + nx           /* A_held, g_held */
-           + np + nmono;            /* p_taylor, mono_before */
+           + np + nmono             /* p_taylor, mono_before */
+           + 2 * nx;                /* a_cols */
 }
 
 int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len) {
@@ -590,6 +604,8 @@ int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, 
     maps->p_taylor = w;
     w += np;
     maps->mono_before = w;
+    w += (size_t)m->nmono;
+    maps->a_cols = w;
     moving_base_init(maps);
     ffx_lti_maps_invalidate(maps);
     return FFX_LTI_OK;
@@ -822,7 +838,17 @@ int ffx_lti_taylor_prepare(ffx_lti_maps *maps, const double *p_before, const dou
         if (usedA[k] != 0.0) change += fabs(mono[k] - before[k]) * maps->norms[k];
     /* no change of A, a jump (its rate against the structure's time scale), or not finite: the maps */
     if (!(change > 0.0 && change / (h * maps->norms[0] * maps->norms[0]) <= FFX_LTI_RATE_MAX)) return 0;
-    combine_used(m->nmono, nx * nx, m->A, mono, usedA, maps->A_held);
+    for (i = 0; i < nx; i++) { /* A(p) over the rows' spans (zero elsewhere), as combine_used */
+        const size_t lo = (size_t)maps->a_cols[i], hi = (size_t)maps->a_cols[nx + i];
+        double *row = maps->A_held + i * nx;
+        for (j = 0; j < nx; j++) row[j] = (j >= lo && j < hi) ? m->A[i * nx + j] : 0.0;
+        for (k = 1; k < nmono; k++) {
+            const double c = mono[k];
+            const double *a = m->A + (k * nx + i) * nx;
+            if (c == 0.0 || usedA[k] == 0.0) continue;
+            for (j = lo; j < hi; j++) row[j] += c * a[j];
+        }
+    }
     theta = h * scaled_norm((int)nx, maps->A_held, maps->weights);
     if (!ffx_lti_taylor_plan(theta, &s, &K)) return 0;
     if (!((double)n * s * ((double)K * (double)(nx * nx) + (double)nx)

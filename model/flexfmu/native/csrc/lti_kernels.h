@@ -84,6 +84,8 @@ typedef struct {
     double *A_held, *g_held; /* (nx, nx), (nx): A(p) and B(p) u + b(p) of the prepared series step */
     double *p_taylor;        /* (np) p of the prepared / last series step */
     double *mono_before;     /* scratch (nmono) */
+    double *a_cols;          /* (2, nx) per row of A: its first column and one past its last that any A_k has
+                                non-zero (integers): the series' products visit those only */
     double taylor_h;         /* the prepared step */
     int taylor_substeps, taylor_terms, taylor_ready, taylor_last; /* plan (s, K); prepared; last step by it */
     long n_taylor_steps;     /* steps taken by the series */
