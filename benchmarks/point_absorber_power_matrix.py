@@ -13,6 +13,14 @@ rows Hs, columns Tp, W), ..._bins.csv (per bin: Hm0, Te, J, count, mean, std, mi
 capture width and ratio, and for the linear configuration the spectral prediction), ..._runs.csv (one row per run),
 and docs/figures/point_absorber_power_matrix.png (both heat maps).  Prints each bin's mean against the spectral
 prediction and the wall time.
+
+Measured (this machine, 2 cores shared, native FMUs, 2 Dask workers): linear 979 s, default 1214 s, 36 runs each, none
+failed; one 1220 s run 33-67 s (linear) and 38-97 s (default) of wall time; energy residual at most 0.38 % (linear)
+and 1.08 % (default).  Linear: mean / spectral prediction 1.0112, 1.0071, 1.0037, 1.0018 at Tp 6, 8, 10, 12 s, the same
+for every Hs (the 6.25 ms step's first-order error, larger for shorter waves), the prediction inside every bin's 95 %
+interval.  Default / linear mean: 0.888 (Hs 3 m, Tp 6 s) to 0.992 (Hs 1 m, Tp 12 s): quadratic drag costs most in
+high, short seas.  Native FMUs through flexfmu's master run a 122 s case 1.8-2.0 x faster than the library master
+(same mean power to the printed digits), hence the default backend.
 """
 from __future__ import annotations
 
