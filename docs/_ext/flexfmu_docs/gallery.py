@@ -61,6 +61,15 @@ EXAMPLES = (
                       "--hs 0.05,0.1,0.2 --tp 1.0,1.4,2.0,2.5 --seeds 2 --t-end 20 --serial",
                       ".venv/bin/python examples/wave_converter/rao_chart.py"),
             see="wave_converter.md"),
+    Example("point_absorber", "A full-scale point absorber: BEM, drag, MoorDyn, native components, IEC power matrix",
+            ("point_absorber_power_matrix.png", "point_absorber_heave_spectrum.png", "point_absorber_drag.png"),
+            commands=(".venv/bin/flexfmu cosim examples/point_absorber/OspSystemStructure.xml --t-end 200 "
+                      "--out pa.csv --plot pa.png",
+                      ".venv/bin/flexfmu cosim examples/point_absorber/OspSystemStructure.xml --master libcosim "
+                      "--every 16 --fmu-dir dist/native/point_absorber --t-end 1200 --set wave.sea_state=jonswap",
+                      ".venv/bin/flexfmu wec power-matrix examples/point_absorber/OspSystemStructure.xml --seeds 3",
+                      ".venv/bin/python benchmarks/point_absorber_checks.py --plot heave_spectrum.png"),
+            see="wave_converter.md"),
     Example("c_host", "A minimal FMI 2.0 host in C", (),
             commands=('gcc -std=c99 -D_GNU_SOURCE -O2 -I"$(.venv/bin/python -c \'import fmpy, os; '
                       'print(os.path.join(os.path.dirname(fmpy.__file__), "c-code"))\')" '
