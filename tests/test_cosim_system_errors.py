@@ -34,6 +34,10 @@ def _line_of(text: str, marker, nth: int = 0) -> int:
     return hits[nth]
 
 
+#: the PTO's damping start value (the first in the example file)
+_DAMPING_MARKER = '<InitialValue variable="damping">'
+
+
 def _cosim(path: Path, *extra: str, master: str = "library") -> int:
     return cli.main(["cosim", str(path), "--t-end", "0.01", "--master", master, "--no-stability-check", *extra])
 
@@ -100,7 +104,7 @@ OSP_CASES = [
      ["true", "false"]),
     ("two InitialValues of one variable", _DAMPING, _DAMPING + "\n                </InitialValue>\n"
      '                <InitialValue variable="damping">\n                    <Real value="3.0" />',
-     ('<InitialValue variable="damping">', 1), "InitialValue", ["twice", "line 157"]),
+     (_DAMPING_MARKER, 1), "InitialValue", ["twice", f"line {_line_of(TEXT, _DAMPING_MARKER)}"]),
     ("Simulator without source", _PTO_SOURCE, '<Simulator name="pto">', '<Simulator name="pto"', "Simulator",
      ["source"]),
     ("Simulator without name", _PTO_SOURCE, '<Simulator source="../../dist/PTO.fmu">', "<Simulator source",

@@ -38,6 +38,13 @@ def fmu_dir(fmus):
 
 
 @pytest.fixture(scope="module")
+def host_home(tmp_path_factory):
+    """One clean HOME for the module's ecos processes: flexfmu's cache (the box's BEM database, ~30 s to compute on
+    a clean machine, and the compiled kernels) is filled once."""
+    return tmp_path_factory.mktemp("ssp_host")
+
+
+@pytest.fixture(scope="module")
 def ssp_file(fmu_dir, tmp_path_factory):
     system = load_system(OSP_FILE, fmu_dir=fmu_dir)
     return write_ssp(system, tmp_path_factory.mktemp("ssp") / "wave_converter.ssp")
@@ -112,7 +119,7 @@ print(f"ECOS_WALL {time.perf_counter() - start:.3f}")
 """
 
 
-def test_three_masters_run_the_ssp_to_1e9(ssp_file, tmp_path, capsys):
+def test_three_masters_run_the_ssp_to_1e9(ssp_file, host_home, tmp_path, capsys):
     """fmpy master (Jacobi), libcosim (from_ssp_file) and ecos (EcosSimulation(ssp_path)) on the same
     archive: every output of every FMU at every communication point."""
     system = load_system(ssp_file).with_values(QUICK)
@@ -137,7 +144,7 @@ def test_three_masters_run_the_ssp_to_1e9(ssp_file, tmp_path, capsys):
     if isinstance(found, str):
         pytest.skip(f"ecos not available: {found} (libcosim agreed: {diffs['libcosim']})")
     out = tmp_path / "ecos.npz"
-    env = host_environment(tmp_path)
+    env = host_environment(host_home)
     proc = run_host([sys.executable, "-c", ECOS_DRIVER, ssp_file, repr(T_END), out, repr(QUICK)], env, tmp_path,
                     timeout=600)
     assert proc.returncode == 0 and out.is_file(), describe(proc, env)
@@ -155,7 +162,7 @@ def test_three_masters_run_the_ssp_to_1e9(ssp_file, tmp_path, capsys):
         assert worst <= 1e-9, (host, worst, where)
 
 
-def test_engines_record_every_kth_point_the_same_values(ssp_file, tmp_path):
+def test_engines_record_every_kth_point_the_same_values(ssp_file, host_home, tmp_path):
     """libcosim and ecos with every = 7 (the steps between recorded points in one engine call): at the recorded
     points the same values, bit for bit, as recording every point (the engines take the same steps), and the last
     point recorded although n is no multiple of 7."""
@@ -172,7 +179,7 @@ def test_engines_record_every_kth_point_the_same_values(ssp_file, tmp_path):
     found = ecos_binaries()
     if isinstance(found, str):
         pytest.skip(f"ecos not available: {found}")
-    env = host_environment(tmp_path)
+    env = host_environment(host_home)
     data = {}
     for k in (1, 7):
         out = tmp_path / f"ecos_{k}.npz"
