@@ -58,7 +58,7 @@ EXAMPLES = (
                       "--out results.csv --plot wec.png",
                       ".venv/bin/python examples/wave_converter/studies.py tuning --serial",
                       ".venv/bin/flexfmu wec power-matrix examples/wave_converter/OspSystemStructure.xml "
-                      "--hs 0.05,0.1,0.2 --tp 1.0,1.4,2.0,2.5 --seeds 2 --t-end 20 --serial",
+                      "--hs 0.05,0.1,0.2 --tp 1.4,2.0,2.5 --seeds 2 --t-end 20 --serial",
                       ".venv/bin/python examples/wave_converter/rao_chart.py"),
             see="wave_converter.md"),
     Example("point_absorber", "A full-scale point absorber: BEM, drag, MoorDyn, native components, IEC power matrix",
