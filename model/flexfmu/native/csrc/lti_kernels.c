@@ -540,17 +540,16 @@ static size_t aug_n(const ffx_lti_model *m) { return (size_t)m->nx + (size_t)m->
 size_t ffx_lti_maps_work_len(const ffx_lti_model *m) {
     const size_t nx = (size_t)m->nx, nu = (size_t)m->nu, ny = (size_t)m->ny, np = (size_t)m->np;
     const size_t nmono = (size_t)FFX_LTI_N_MONOMIALS(m->np), n = aug_n(m);
-    return 2 * np                   /* p_step, p_output */
-           + nx * nx + nx * nu + nx /* Ad, Bd, bd */
-           + ny * nx + ny * nu + ny /* Cx, Cu, y0 */
-           + (nx + nu + nmono)      /* z */
-           + nmono + nx             /* mono, x_new */
-           + 2 * n * n              /* aug, its exponential */
-           + ffx_lti_expm_work_len((int)n)
-           + nx + nmono + 6 * nmono /* weights, norms, used */
-           + nx * nx + nx           /* A_held, g_held */
-           + np + nmono             /* p_taylor, mono_before */
-           + 2 * nx;                /* a_cols */
+    return 2 * np                                                   /* p_step, p_output */
+           + nx * nx + nx * nu + nx                                 /* Ad, Bd, bd */
+           + ny * nx + ny * nu + ny                                 /* Cx, Cu, y0 */
+           + (nx + nu + nmono)                                      /* z */
+           + nmono + nx                                             /* mono, x_new */
+           + 2 * n * n                                              /* aug, its exponential */
+           + ffx_lti_expm_work_len((int)n) + nx + nmono + 6 * nmono /* weights, norms, used */
+           + nx * nx + nx                                           /* A_held, g_held */
+           + np + nmono                                             /* p_taylor, mono_before */
+           + 2 * nx;                                                /* a_cols */
 }
 
 int ffx_lti_maps_init(ffx_lti_maps *maps, const ffx_lti_model *m, double *work, size_t work_len) {

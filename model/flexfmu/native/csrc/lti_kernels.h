@@ -88,7 +88,7 @@ typedef struct {
                                 non-zero (integers): the series' products visit those only */
     double taylor_h;         /* the prepared step */
     int taylor_substeps, taylor_terms, taylor_ready, taylor_last; /* plan (s, K); prepared; last step by it */
-    long n_taylor_steps;     /* steps taken by the series */
+    long n_taylor_steps;                                          /* steps taken by the series */
 } ffx_lti_maps;
 
 /* 0 (FFX_LTI_OK) if the model's sizes and quadratic-term indices are consistent (nmono, 0 <= rows < ny,
