@@ -81,3 +81,50 @@ class SectionFibres:
         sigma = self.sigma_max(N, My, Mz)
         tau = np.abs(np.asarray(T, dtype=float)) * self.torsion_arm / self.J
         return np.sqrt(sigma * sigma + 3.0 * tau * tau)
+
+
+#: the kinds of derived stress output: a von Mises stress of six stress outputs (VOIGT order), and a beam section's
+#: largest axial or von Mises stress of its section forces (N, T, My, Mz)
+DERIVED_KINDS = ("tensor_von_mises", "section_sigma_max", "section_von_mises")
+
+
+@dataclass(frozen=True)
+class DerivedStress:
+    """An output computed from other outputs of the same FMU, not linear in the state: what a simulator lists in its
+    ``derived_outputs`` so that the native runtime's extraction leaves it out of the linear fit and evaluates it in C
+    after the linear outputs, by the same formula.
+
+    output:  the derived output's name.
+    kind:    one of DERIVED_KINDS.
+    sources: the names of the outputs it is computed from: six stress outputs in VOIGT order (tensor_von_mises), or
+             a gauge's (N, T, My, Mz) outputs (section_*).
+    fibres:  the section's SectionFibres (section_*), None for tensor_von_mises."""
+
+    output: str
+    kind: str
+    sources: tuple
+    fibres: SectionFibres | None = None
+
+    def __post_init__(self):
+        if self.kind not in DERIVED_KINDS:
+            raise ValueError(f"derived kind {self.kind!r} is not one of {DERIVED_KINDS}")
+        wanted = 6 if self.kind == "tensor_von_mises" else 4
+        if len(self.sources) != wanted or (self.fibres is None) != (self.kind == "tensor_von_mises"):
+            raise ValueError(f"derived output {self.output!r}: {self.kind} takes {wanted} sources"
+                             + (" and no fibres" if wanted == 6 else " and the section's fibres"))
+
+    def evaluate(self, values):
+        """The derived value from the source outputs' ``values`` (in ``sources`` order; arrays broadcast)."""
+        if self.kind == "tensor_von_mises":
+            return von_mises(np.stack([np.asarray(v, dtype=float) for v in values], axis=-1))
+        N, T, My, Mz = values
+        if self.kind == "section_sigma_max":
+            return self.fibres.sigma_max(N, My, Mz)
+        return self.fibres.von_mises(N, T, My, Mz)
+
+
+def evaluate_derived(derived, names, y) -> None:
+    """Overwrite the derived outputs of the output vector ``y`` (names ``names``, a tuple) in place from its sources."""
+    index = {name: k for k, name in enumerate(names)}
+    for d in derived:
+        y[index[d.output]] = d.evaluate([y[index[s]] for s in d.sources])
