@@ -16,6 +16,7 @@ from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
 from flexfmu.body.free import free_invariants
 from flexfmu.body.interfaces import resolve_interfaces
 from flexfmu.body.model import ClampedBody, FlexBody, FreeBody, InterfaceData
+from flexfmu.body.stress import SolidStress, gauge_from_text, resolve_gauges
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import finite, shown
 from flexfmu.core.io import validate_structure
@@ -78,7 +79,8 @@ def _provenance(structure: Structure, reduction: dict) -> dict:
 
 
 def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_max=None, tolerance=None,
-               damping_ratio: float = 0.02, name: str | None = None, added_mass=None) -> FlexBody:
+               damping_ratio: float = 0.02, name: str | None = None, added_mass=None, gauges=(),
+               with_shapes: bool = False) -> FlexBody:
     """The reduced body of ``structure`` with ``interfaces`` (Interface or dicts, flexfmu.body.interfaces): a
     FreeBody or a ClampedBody (flexfmu.body.model).
 
@@ -93,21 +95,54 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                     patch's rigid fit (Eq. (I3)), so its rigid motion carries exactly A (e.g. a hull's
                     infinite-frequency added mass, flexfmu.wec.barge).  A free body's must be a point mass at the
                     point (translational block m I, no coupling block): the reframe kernels carry one mass.
+    gauges:         stress and strain gauges (flexfmu.body.stress.Gauge or --gauge texts NAME=SET | NAME=X,Y,Z) of
+                    a clamped solid body: outputs NAME.sigma_*, NAME.von_mises, NAME.eps_* (flexfmu.body.stress).
+    with_shapes:    also attach ``body.shape_data`` (not saved with the body): the nodes, cells, the retained shapes
+                    Psi (N, 3, m) and the nodal stress shapes (N, 6, m) of a clamped solid body, what the FMU's
+                    shape file holds (flexfmu.body.shape_file); None for a body without cells.
     """
     if not isinstance(structure, Structure):
         raise ParameterError("structure", f"{type(structure).__name__}", "a flexfmu Structure")
     if not (finite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
         raise ParameterError("damping_ratio", f"{shown(damping_ratio)}", "0 <= damping_ratio < 1")
+    gauges = [g if not isinstance(g, str) else gauge_from_text(g) for g in (gauges or ())]
+    if gauges and clamp is None:
+        raise ParameterError("gauge", "a free body: its gauges would need the stress of its rigid-body motion's "
+                             "inertia loads (inertia relief), which flexfmu does not evaluate",
+                             "a clamped body (--clamp SET), or no --gauge")
     checked = validate_structure(structure)
+    evaluator = SolidStress(checked) if gauges else None      # a model without cells is refused before the work
     # the whole reduction (modes, sizing, static correction, invariants): one choke point for the BLAS threads
     with limited_for(checked.n_dof):
-        return _reduced_body(structure, checked, interfaces, clamp, n_modes, f_max, tolerance, damping_ratio, name,
-                             added_mass)
+        body, shapes = _reduced_body(structure, checked, interfaces, clamp, n_modes, f_max, tolerance, damping_ratio,
+                                     name, added_mass)
+        if gauges:
+            body.gauges = resolve_gauges(checked, gauges, shapes, evaluator)
+            body.messages = body.messages + tuple(f"gauge {g.name}: {g.where}" for g in body.gauges)
+            if body.n_coordinates == body.n_modes:
+                body.messages = body.messages + (
+                    "gauges: no static-correction vectors (n_modes given, or the interfaces' static translation "
+                    "was within tolerance): a gauge's quasi-static stress carries the modes' truncation error",)
+        if with_shapes:
+            body.shape_data = shape_data(checked, body, shapes) if clamp is not None and checked.cells else None
+        return body
+
+
+def shape_data(structure: Structure, body: FlexBody, shapes: np.ndarray) -> dict:
+    """What the shape file of ``body`` holds (flexfmu.body.shape_file): nodes (N, 3) m and cells of ``structure``,
+    Psi (N, 3, m) the retained shapes (u = Psi q), S (N, 6, m) their averaged nodal stresses (Pa per unit q), the
+    names of q and the body's name."""
+    evaluator = SolidStress(structure, "shape file")
+    m = shapes.shape[1]
+    return {"nodes": np.asarray(structure.nodes, float), "cells": dict(structure.cells),
+            "Psi": shapes.reshape(-1, 3, m), "S": evaluator.stress(evaluator.nodal_strain(shapes)),
+            "names": body.shape_names(), "name": body.name}
 
 
 def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n_modes, f_max, tolerance,
-                  damping_ratio: float, name: str | None, added_mass) -> FlexBody:
-    """build_body after its checks (``checked``: the validated structure)."""
+                  damping_ratio: float, name: str | None, added_mass) -> tuple[FlexBody, np.ndarray]:
+    """build_body after its checks (``checked``: the validated structure): the body and its retained shapes
+    (n_dof, m), zero on the clamped DOFs."""
     checked = dataclasses.replace(checked, node_sets=structure.node_sets or {},
                                   constrained_dofs=structure.constrained_dofs, provenance=structure.provenance)
     patches = resolve_interfaces(checked, interfaces)
@@ -160,13 +195,14 @@ def _reduced_body(structure: Structure, checked: Structure, interfaces, clamp, n
                  f"f_max = {f_max:g} Hz, tolerance = {1e-3 if tolerance is None else tolerance:g}",
                  "static correction": "on" if sized.eigenvalues.size > sized.n_modes else "off",
                  "damping ratio": float(damping_ratio)}
-    return body_class(name=name if name is not None else (structure.name or ""),
+    body = body_class(name=name if name is not None else (structure.name or ""),
                       dofs_per_node=int(checked.dofs_per_node), interfaces=data,
                       eigenvalues=np.asarray(sized.eigenvalues, float), n_modes=int(sized.n_modes),
                       natural_frequencies_hz=np.asarray(sized.natural_hz, float), mass=mass,
                       center_of_mass=np.asarray(com, float), inertia=np.asarray(inertia, float),
                       damping_ratio=float(damping_ratio), arrays=arrays, provenance=_provenance(structure, reduction),
                       messages=tuple(sized.messages), clamped_dofs=fixed)
+    return body, shapes
 
 
 def _with_added_mass(structure: Structure, patches, added_mass: dict, free: bool) -> Structure:

@@ -47,6 +47,19 @@ def _frame_global(q_omega_alpha: np.ndarray) -> np.ndarray:
     return np.concatenate([rot, R @ q_omega_alpha[4:7], R @ q_omega_alpha[7:10]])
 
 
+def stress_rows(body, m: int) -> np.ndarray:
+    """The outputs after a clamped body's natural frequencies as rows on x = [eta; eta_d] (flexfmu.body.model:
+    shape_names, gauge_names): q = eta, then per gauge its stress S eta, a zero row for its von Mises (a derived
+    output, filled by the simulator) and its strain E eta."""
+    rows = [np.eye(m)] if body.shape_outputs else []
+    for g in body.gauges:
+        rows += [g.stress, np.zeros((1, m)), g.strain]
+    if not rows:
+        return np.zeros((0, 2 * m))
+    eta = np.vstack(rows)
+    return np.hstack([eta, np.zeros_like(eta)])
+
+
 class FreeEngine:
     """A free body: state y (flexfmu.reframe.layout.STATE) and t; inputs [F (3), M (3 if moments)] per interface,
     global."""
@@ -193,6 +206,7 @@ class ClampedEngine:
                                     dtype=np.intp)
         self._frequencies = np.asarray(body.natural_frequencies_hz, dtype=float)
         self._n_outputs = 9 * len(ifs) + 6              # before the frequencies
+        self._extra_Cx = stress_rows(body, self.dyn.m)  # after them: the shape coordinates and the gauges
         self._held_maps = BoundedCache(MAP_MEMO_SIZE)
         #: False: every step by the maps (one exponential per new rotation: the comparisons of tests and benchmarks)
         self.moving_base_series = True
@@ -247,11 +261,13 @@ class ClampedEngine:
         return hit
 
     def _with_frequencies(self, dyn, w, alpha) -> HeldMaps:
+        """The held maps followed by the constant rows of the frequencies and the rows of the shape coordinates and
+        gauges (stress_rows: linear in eta, whatever the base does)."""
         maps = dyn.held_maps(w, alpha)
-        nf = self._frequencies.size
-        return dataclasses.replace(maps, Cx=np.vstack([maps.Cx, np.zeros((nf, maps.Cx.shape[1]))]),
-                                   Cu=np.vstack([maps.Cu, np.zeros((nf, maps.Cu.shape[1]))]),
-                                   y0=np.concatenate([maps.y0, self._frequencies]))
+        nf, extra = self._frequencies.size, self._extra_Cx
+        return dataclasses.replace(maps, Cx=np.vstack([maps.Cx, np.zeros((nf, maps.Cx.shape[1])), extra]),
+                                   Cu=np.vstack([maps.Cu, np.zeros((nf + extra.shape[0], maps.Cu.shape[1]))]),
+                                   y0=np.concatenate([maps.y0, self._frequencies, np.zeros(extra.shape[0])]))
 
     # ---- moving base (flexfmu.native.lti_taylor)
     def _output_values(self, dyn, w, alpha) -> np.ndarray:
@@ -284,7 +300,7 @@ class ClampedEngine:
             return self._moving_outputs[1]
         mb = self._moving_model()
         v = mb.outputs(np.array(key))
-        ny, nx, nl = self._n_outputs + self._frequencies.size, 2 * self.dyn.m, self.n_loads
+        ny, nx, nl = self._n_outputs + self._frequencies.size + self._extra_Cx.shape[0], 2 * self.dyn.m, self.n_loads
         force0 = mb.step(np.array(key))[nx * nx:]
         maps = HeldMaps(mb.force, force0, v[:ny * nx].reshape(ny, nx), v[ny * nx:ny * (nx + nl)].reshape(ny, nl),
                         v[ny * (nx + nl):], mb.moment_arm, mb.moment)
@@ -341,7 +357,7 @@ class ClampedEngine:
         y += maps.y0
         y[maps.moment] += ul @ (maps.moment_arm @ x[:self.dyn.m]).reshape(-1, 3)
         if not y.dot(y) < math.inf and not np.all(np.isfinite(y)):
-            y = np.concatenate([self.outputs_by_terms(), self._frequencies])
+            y = np.concatenate([self.outputs_by_terms(), self._frequencies, self._extra_Cx @ x])
         return y
 
     def outputs(self, include_deferred: bool = True) -> np.ndarray:

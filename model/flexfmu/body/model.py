@@ -17,6 +17,9 @@ header's kind names):
                            flexfmu.body.interfaces, the patch DOFs' rows of the retained coordinates
     inv.<name>             the kind's reduced arrays (free: flexfmu.body.free.free_invariants; clamped:
                            flexfmu.body.clamped.clamped_invariants)
+    gauge<g>.strain, gauge<g>.stress  (6, m) gauge g's strain (1) and stress (Pa) per retained coordinate (VOIGT,
+                           body frame; flexfmu.body.stress), its name and place in the header's "gauges"
+                           (optional: a file without gauges has neither)
 
 Size: a free body keeps the translational mode rows of every node (for max_elastic_displacement), 3 N m
 numbers; a clamped body only O(m^2) numbers per coordinate pair.
@@ -33,6 +36,8 @@ from typing import ClassVar
 import numpy as np
 
 from flexfmu.body.engines import ClampedEngine, FreeEngine
+from flexfmu.body.stress import GaugeData
+from flexfmu.core.stress import VOIGT, DerivedStress
 from flexfmu.body.variables import AXES, ClampedBodyConfig, FlexBodyConfig, axes_info, parameter_info
 from flexfmu.errors import ParameterError
 
@@ -54,6 +59,12 @@ REACTION_OUTPUTS = tuple(f"reaction_F_{a}" for a in AXES) + tuple(f"reaction_M_{
 #: a clamped body's inputs after the interfaces': its base's motion, body frame
 BASE_INPUTS = (tuple(f"base_a_{a}" for a in AXES) + tuple(f"base_w_{a}" for a in AXES)
                + tuple(f"base_dw_{a}" for a in AXES))
+
+
+def gauge_output_names(name: str) -> tuple[str, ...]:
+    """A gauge's outputs, in order: NAME.sigma_xx .. NAME.sigma_xz, NAME.von_mises, NAME.eps_xx .. NAME.eps_xz."""
+    return (tuple(f"{name}.sigma_{c}" for c in VOIGT) + (f"{name}.von_mises",)
+            + tuple(f"{name}.eps_{c}" for c in VOIGT))
 
 
 class _ClassConstant:
@@ -121,6 +132,8 @@ class FlexBody:
     frame: ClassVar[str]
     interface_notes: ClassVar[dict]
     frequency_text: ClassVar[str]
+    #: whether the retained coordinates are outputs (q_1 .. q_m) and gauges are possible: a clamped body's
+    shape_outputs: ClassVar[bool] = False
 
     name: str
     dofs_per_node: int
@@ -136,6 +149,10 @@ class FlexBody:
     provenance: dict = field(default_factory=dict)
     messages: tuple = ()
     clamped_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: the stress and strain gauges (flexfmu.body.stress.GaugeData): outputs linear in the coordinates
+    gauges: tuple = ()
+    #: build_body(with_shapes=True): the shape file's content (flexfmu.body.build.shape_data); not saved
+    shape_data: dict | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self):
         if not isinstance(getattr(type(self), "kind", None), str):
@@ -203,11 +220,25 @@ class FlexBody:
         """f_1 .. f_k: the natural_frequencies_hz outputs."""
         return tuple(f"f_{k}" for k in range(1, len(self.natural_frequencies_hz) + 1))
 
+    def shape_names(self) -> tuple[str, ...]:
+        """q_1 .. q_m: the retained coordinates as outputs (a clamped body's; none for a free body): the eigenmodes'
+        then the static-correction vectors', so that the displacement of every node is Psi q (the shape file)."""
+        return tuple(f"q_{k}" for k in range(1, self.n_coordinates + 1)) if self.shape_outputs else ()
+
+    def gauge_names(self) -> tuple[str, ...]:
+        """Per gauge G: G.sigma_xx .. G.sigma_xz (Pa), G.von_mises (Pa, derived), G.eps_xx .. G.eps_xz (1)."""
+        return tuple(name for g in self.gauges for name in gauge_output_names(g.name))
+
+    def derived_outputs(self) -> tuple:
+        """The outputs computed from other outputs (flexfmu.core.stress.DerivedStress): each gauge's von Mises."""
+        return tuple(DerivedStress(f"{g.name}.von_mises", "tensor_von_mises",
+                                   tuple(f"{g.name}.sigma_{c}" for c in VOIGT)) for g in self.gauges)
+
     def output_names(self) -> tuple[str, ...]:
         """The outputs in the order of FlexBodySimulator.output_vector: each interface's pos, vel, acc, then the
-        kind's own, then the natural frequencies."""
+        kind's own, then the natural frequencies, the shape coordinates and the gauges."""
         per = tuple(f"{i.name}.{q}_{a}" for i in self.interfaces for q in ("pos", "vel", "acc") for a in AXES)
-        return per + self.body_outputs + self.frequency_names()
+        return per + self.body_outputs + self.frequency_names() + self.shape_names() + self.gauge_names()
 
     def variable_info(self) -> dict[str, tuple[str, str]]:
         """name -> (unit, description) of every parameter (those of config_class), input and output."""
@@ -225,6 +256,18 @@ class FlexBody:
                                   + notes["acc"]))
         info.update(self._body_variable_info())
         info.update({n: ("Hz", f"{self.frequency_text} {k}") for k, n in enumerate(self.frequency_names(), start=1)})
+        for k, n in enumerate(self.shape_names(), start=1):
+            kind = (f"eigenmode {k} ({self.coordinate_frequencies_hz[k - 1]:.6g} Hz)" if k <= self.n_modes else
+                    f"static-correction (residual-flexibility) vector {k - self.n_modes}")
+            info[n] = ("", f"coordinate {k} of the displacement u = Psi q, {kind}; Psi mass-normalised "
+                           "(Psi^T M Psi = I), so q in m kg^0.5")
+        for g in self.gauges:
+            for c in VOIGT:
+                info[f"{g.name}.sigma_{c}"] = ("Pa", f"stress sigma_{c}, body frame, at gauge {g.name}: {g.where}")
+            info[f"{g.name}.von_mises"] = ("Pa", f"von Mises stress of {g.name}.sigma_*")
+            for c in VOIGT:
+                info[f"{g.name}.eps_{c}"] = ("", f"strain eps_{c} (tensor component, 1), body frame, at gauge "
+                                                 f"{g.name}: {g.where}")
         return info
 
     def _body_variable_info(self) -> dict[str, tuple[str, str]]:
@@ -250,6 +293,8 @@ class FlexBody:
                   "interfaces": [{"name": i.name, "point": np.asarray(i.point, float).tolist(),
                                   "moments": bool(i.moments), "rule": i.rule} for i in self.interfaces],
                   "provenance": self.provenance, "messages": list(self.messages), "arrays": sorted(self.arrays)}
+        if self.gauges:
+            header["gauges"] = [{"name": g.name, "where": g.where} for g in self.gauges]
         data = {"header": np.array(json.dumps(header, allow_nan=False)),
                 "eigenvalues": self.eigenvalues, "natural_frequencies_hz": self.natural_frequencies_hz,
                 "center_of_mass": self.center_of_mass, "inertia": self.inertia,
@@ -258,6 +303,8 @@ class FlexBody:
             data.update({f"if{k}.nodes": np.asarray(i.nodes, np.int64), f"if{k}.dofs": np.asarray(i.dofs, np.int64),
                          f"if{k}.D": i.D, f"if{k}.shapes": i.shapes})
         data.update({f"inv.{k}": v for k, v in self.arrays.items()})
+        for k, g in enumerate(self.gauges):
+            data.update({f"gauge{k}.strain": g.strain, f"gauge{k}.stress": g.stress})
         with open(path, "wb") as fh:
             np.savez_compressed(fh, **data)
         return path
@@ -307,6 +354,7 @@ class FreeBody(FlexBody):
     body_outputs = FREE_BODY_OUTPUTS + FRAME_GLOBAL_OUTPUTS
     deferred_outputs = ("max_elastic_displacement",)
     frame = "global"
+    shape_outputs = False
     interface_notes = {"pos": "", "vel": "", "acc": ""}
     frequency_text = "elastic natural frequency"
 
@@ -344,6 +392,7 @@ class ClampedBody(FlexBody):
     body_inputs = BASE_INPUTS
     body_outputs = REACTION_OUTPUTS
     frame = "body frame"
+    shape_outputs = True
     interface_notes = {"pos": ", from the body origin", "vel": ", elastic, relative to the base",
                        "acc": ", absolute (accelerometer)"}
     frequency_text = "natural frequency of the clamped structure"
@@ -427,7 +476,11 @@ def _from_parts(header: dict, files: dict) -> FlexBody:
     mass = float(header["mass"])
     if not (math.isfinite(mass) and mass > 0):
         raise ValueError(f"mass {mass}")
-    return body_class(name=str(header["name"]), dofs_per_node=dpn, interfaces=tuple(interfaces),
+    gauges = tuple(GaugeData(str(g["name"]), str(g["where"]), _array(files, f"gauge{k}.strain", (6, m)),
+                             _array(files, f"gauge{k}.stress", (6, m))) for k, g in enumerate(header.get("gauges", ())))
+    if gauges and not body_class.shape_outputs:
+        raise ValueError("gauges on a free body")
+    return body_class(name=str(header["name"]), dofs_per_node=dpn, interfaces=tuple(interfaces), gauges=gauges,
                       eigenvalues=eig, n_modes=n_modes,
                       natural_frequencies_hz=_array(files, "natural_frequencies_hz", (None,)), mass=mass,
                       center_of_mass=_array(files, "center_of_mass", (3,)), inertia=_array(files, "inertia", (3, 3)),

@@ -14,7 +14,9 @@ Variables of a body with interfaces I (names from input_names / output_names):
                            base's acceleration, angular velocity and angular acceleration, body frame (as FFRBeam)
                    outputs I.pos_* (x_I + u_I), I.vel_* (elastic, relative to the base), I.acc_* (absolute:
                            accelerometer), body frame; reaction_F_*, reaction_M_* (on the base, about the body
-                           origin, body frame); f_1 .. f_k
+                           origin, body frame); f_1 .. f_k; q_1 .. q_m (the retained coordinates: eigenmodes,
+                           then static-correction vectors; u = Psi q); per gauge G (flexfmu export --gauge):
+                           G.sigma_xx .. G.sigma_xz (Pa), G.von_mises (Pa), G.eps_xx .. G.eps_xz (1), body frame
 
 f_1 .. f_k (Hz, constant) are the body's lowest natural frequencies: k = 6, or fewer when the structure has fewer
 elastic DOFs (free: without the rigid modes; clamped: of the clamped structure).
@@ -37,6 +39,7 @@ from flexfmu.body.engines import _frame_global  # noqa: F401  (its former home; 
 from flexfmu.body.variables import (INITIAL_MOTION, TOLERANCE_RANGE, ClampedBodyConfig, FlexBodyConfig,  # noqa: F401
                                     check_config)
 from flexfmu.core.checks import finite_input, shown
+from flexfmu.core.stress import evaluate_derived
 from flexfmu.errors import NonFiniteError, ParameterError
 
 __all__ = ["FlexBodyConfig", "ClampedBodyConfig", "TOLERANCE_RANGE", "FlexBodySimulator", "config_class",
@@ -82,6 +85,9 @@ class FlexBodySimulator:
         zeta = check_config(config, body)
         self.input_names = body.input_names()
         self.output_names = body.output_names()
+        #: outputs computed from other outputs after the linear ones (flexfmu.core.stress.DerivedStress): the gauges'
+        #: von Mises; the native extraction leaves them out of its linear fit
+        self.derived_outputs = body.derived_outputs()
         self.engine = body.engine_class(body, config, zeta, self.input_names)
         self.inputs = dict.fromkeys(self.input_names, 0.0)
         self._u = np.zeros(len(self.input_names))
@@ -159,6 +165,8 @@ class FlexBodySimulator:
         """All outputs in output_names order (max_elastic_displacement = -1 when include_deferred is False)."""
         with np.errstate(all="ignore"):
             y = self.engine.output_vector(include_deferred)
+            if self.derived_outputs:
+                evaluate_derived(self.derived_outputs, self.output_names, y)
         # y.y is finite when y is (unless |y| > 1e154): the element-wise check only then
         if not y.dot(y) < math.inf and not np.all(np.isfinite(y)):
             bad = [self.output_names[i] for i in np.flatnonzero(~np.isfinite(y))]

@@ -17,6 +17,7 @@ and these, optional (written only when the model has them; files without them lo
     node_set_indptr   (S+1,)  int  set s holds node_set_nodes[node_set_indptr[s]:node_set_indptr[s + 1]]
     node_set_nodes    (n,)    int  node indices, sorted and unique within each set
     provenance        ()      str  JSON of Structure.provenance (source, format, reader, units, material, notes)
+    cells_<type>      (n, k)  int  the volume cells of meshio cell type <type> (Structure.cells), node indices
 
 DOFs are numbered node by node: DOF ``dofs_per_node * i + j`` is component ``j`` of node ``i``.
 SI units throughout (kg, kg m^2, N/m, N m/rad).
@@ -45,6 +46,9 @@ REQUIRED_KEYS = ("nodes", "dofs_per_node") + tuple(
 )
 NODE_SET_KEYS = ("node_set_names", "node_set_indptr", "node_set_nodes")
 OPTIONAL_KEYS = ("constrained_dofs",) + NODE_SET_KEYS + ("provenance",)
+CELLS_PREFIX = "cells_"             # cells_<meshio type>: Structure.cells
+#: nodes per cell of the cell types a Structure may carry (flexfmu.importers.elements assembles these)
+CELL_NODES = {"tetra": 4, "tetra10": 10, "hexahedron": 8, "hexahedron20": 20, "hexahedron27": 27}
 ALLOWED_DOFS_PER_NODE = (3, 6)
 SYMMETRY_RTOL = 1e-8  # |A - A^T|_max <= SYMMETRY_RTOL * |A|_max; A is then symmetrised exactly
 MASS_RTOL = 1e-8      # translational masses must agree to this relative tolerance
@@ -181,9 +185,31 @@ def validate_structure(structure: Structure) -> Structure:
     constrained = _check_constrained(getattr(structure, "constrained_dofs", ()), "structure.constrained_dofs", n_dof)
     sets = _check_node_sets(getattr(structure, "node_sets", {}) or {}, "structure.node_sets", nodes.shape[0])
     provenance = getattr(structure, "provenance", None) or Provenance()
+    cells = _check_cells(getattr(structure, "cells", {}) or {}, "structure.cells", nodes.shape[0], dpn)
     return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=structure.name,
                      meta=dict(structure.meta), points=dict(getattr(structure, "points", {}) or {}),
-                     constrained_dofs=constrained, node_sets=sets, provenance=provenance)
+                     constrained_dofs=constrained, node_sets=sets, provenance=provenance, cells=cells)
+
+
+def _check_cells(cells, name: str, n_nodes: int, dpn: int) -> dict:
+    """Structure.cells checked: known cell types, (n, k) node indices of the model, a solid's (3 DOFs per node)."""
+    if not isinstance(cells, dict):
+        raise ParameterError(name, f"{type(cells).__name__} is not a dict", "{meshio cell type: (n, k) node indices}")
+    out = {}
+    for cell_type, members in cells.items():
+        where = f"{name}[{cell_type!r}]"
+        if cell_type not in CELL_NODES:
+            raise ParameterError(where, "unknown cell type", ", ".join(CELL_NODES))
+        if dpn != 3:
+            raise ParameterError(where, f"volume cells on a model of {dpn} DOFs per node", "3 DOFs per node (a solid)")
+        arr = np.asarray(members)
+        k = CELL_NODES[cell_type]
+        if arr.ndim != 2 or arr.shape[1] != k or (arr.size and arr.dtype.kind not in "iu"):
+            raise ParameterError(where, f"shape {arr.shape}, dtype {arr.dtype}", f"(n, {k}) integer node indices")
+        if arr.size and (arr.min() < 0 or arr.max() >= n_nodes):
+            raise ParameterError(where, "not node indices", f"integers 0 ... {n_nodes - 1}")
+        out[str(cell_type)] = arr.astype(np.int64)
+    return out
 
 
 def _check_constrained(values, name: str, n_dof: int) -> np.ndarray:
@@ -224,6 +250,8 @@ def _optional_arrays(s: Structure) -> dict:
                                     if arrays["node_set_indptr"][-1] else np.zeros(0, dtype=np.int64))
     if s.provenance != Provenance():
         arrays["provenance"] = np.array(json.dumps(asdict(s.provenance)))
+    for cell_type, cells in s.cells.items():
+        arrays[CELLS_PREFIX + cell_type] = cells.astype(np.int64)
     return arrays
 
 
@@ -308,10 +336,12 @@ def load_structure(path) -> Structure:
     for key in REQUIRED_KEYS:
         if key not in parts:
             raise ParameterError(key, f"missing from {path.name}", "keys: " + ", ".join(REQUIRED_KEYS))
-    extra = sorted(set(parts) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS))
+    extra = sorted(set(parts) - set(REQUIRED_KEYS) - set(OPTIONAL_KEYS)
+                   - {CELLS_PREFIX + t for t in CELL_NODES})
     if extra:
         raise ParameterError(extra[0], f"unknown key in {path.name}",
-                             "keys: " + ", ".join(REQUIRED_KEYS + OPTIONAL_KEYS))
+                             "keys: " + ", ".join(REQUIRED_KEYS + OPTIONAL_KEYS) + ", cells_<type> ("
+                             + ", ".join(CELL_NODES) + ")")
 
     nodes = _check_nodes(parts["nodes"], "nodes")
     dpn = _check_dofs_per_node(parts["dofs_per_node"], "dofs_per_node")
@@ -320,5 +350,8 @@ def load_structure(path) -> Structure:
     K = _check_matrix(_csr_from_parts("K", parts, n_dof), "K_data", n_dof, "K")
     _check_translational_mass(M, dpn, "M_data")
     constrained, sets, provenance = _optional_from_parts(parts, path, nodes.shape[0], n_dof)
+    cells = {}
+    for key in sorted(k for k in parts if k.startswith(CELLS_PREFIX)):
+        cells.update(_check_cells({key[len(CELLS_PREFIX):]: parts[key]}, key, nodes.shape[0], dpn))
     return Structure(nodes=nodes, dofs_per_node=dpn, M=M, K=K, name=path.stem, meta={"source": str(path)},
-                     constrained_dofs=constrained, node_sets=sets, provenance=provenance)
+                     constrained_dofs=constrained, node_sets=sets, provenance=provenance, cells=cells)

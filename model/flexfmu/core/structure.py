@@ -57,6 +57,10 @@ class Structure:
     node_sets:        named node index sets from the file (gmsh physical groups, Abaqus NSET, Nastran
                       SPC sets, ...), for clamps and interfaces.
     provenance:       where the model came from (:class:`Provenance`).
+    cells:            the volume cells of a solid mesh: meshio cell type ("tetra", "tetra10", "hexahedron",
+                      "hexahedron20", "hexahedron27") -> (n, k) node indices in meshio's (VTK's) node order; what
+                      stresses and strains are evaluated on (flexfmu.body.stress).  Empty for models read as
+                      matrices (Nastran DMIG / OP2, MAPDL .full, a .npz without cells) and for beams.
     """
 
     nodes: np.ndarray
@@ -69,6 +73,7 @@ class Structure:
     constrained_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     node_sets: dict = field(default_factory=dict)
     provenance: Provenance = field(default_factory=Provenance)
+    cells: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n_dof(self) -> int:

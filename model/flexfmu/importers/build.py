@@ -99,8 +99,11 @@ def structure_from_mesh(path, read: ReadMesh, *, length_unit: str, name: str, fi
                             material=next(iter(materials)).as_tuple() if len(materials) == 1 else
                             tuple(m.as_tuple() for m in sorted(materials, key=lambda m: (m.E, m.nu, m.rho))),
                             notes=tuple(notes))
+    cells = {}                                 # per meshio type, the blocks' cells in order (stresses read them)
+    for b in blocks:
+        cells[b.cell_type] = np.vstack([cells[b.cell_type], b.cells]) if b.cell_type in cells else b.cells
     return Structure(nodes=points, dofs_per_node=3, M=M, K=K, name=name, meta=meta, constrained_dofs=constrained,
-                     node_sets=node_sets, provenance=provenance)
+                     node_sets=node_sets, provenance=provenance, cells=cells)
 
 
 def _refuse_degenerate_cells(path, read: ReadMesh) -> None:
