@@ -47,7 +47,9 @@ Entries every model file has (read by csrc/flexfmu_native.c):
                                     none
 
 and the kind's entries, ``<kind>.*`` (the LTI kind's: csrc/native_lti.c's header comment; the Python kind has none:
-its simulator comes from the FMU's slave script, flexfmu.fmi.loader).
+its simulator comes from the FMU's slave script, flexfmu.fmi.loader).  Among the LTI kind's, the derived outputs
+(:func:`derived_entries`) are optional: a model file without them (an older one, or a model without gauges) loads
+as before.
 """
 from __future__ import annotations
 
@@ -216,3 +218,16 @@ def entries(spec, *, kind: str, name: str, guid: str, values: dict | None = None
         "outputs.deferred": np.array([outputs.index(n) for n in getattr(spec, "deferred_outputs", ())], np.int32),
     }
     return common, inputs, outputs, params
+
+
+def derived_entries(lti) -> dict:
+    """The LTI kind's derived-output entries (csrc/native_lti.c, csrc/derived_stress.h) of an LtiModel ``lti``:
+    ``lti.derived.kind``, ``.shape``, ``.output`` int32 (n): the kind's code (1 tensor_von_mises, 2 section_sigma_max,
+    3 section_von_mises), the section's shape (0 none, 1 circle, 2 tube, 3 rectangle), the output's index among the
+    model's outputs; ``.sources`` int32 (n, 6): the sources' indices (-1 after the kind's 6 or 4); ``.fibres`` float64
+    (n, 7): the SectionFibres constants A, Iy, Iz, J, y_max, z_max, torsion_arm (zeros for a tensor).  None for a model
+    without derived outputs."""
+    from flexfmu.native.lti_derived import derived_arrays
+    if not lti.derived:
+        return {}
+    return {f"lti.derived.{k}": v for k, v in derived_arrays(lti.derived, lti.output_names).items()}

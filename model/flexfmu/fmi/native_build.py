@@ -46,8 +46,8 @@ _FRONT = ("native_front.c", "flexfmu_fmi3.c", "flexfmu_native.c", "native_kinds.
           "native_wec.c", "native_moordyn.c")
 _FRONT_HEADERS = ("flexfmu_fmi2.c", "front_common.c", "front_common.h", "flexfmu_bridge.h", "native_kind.h",
                   "native_platform.h")
-_KERNELS = ("lti_kernels.c", "reframe_kernels.c", "step_policy.c")
-_KERNEL_HEADERS = ("lti_kernels.h", "reframe_kernels.h", "step_policy.h")
+_KERNELS = ("lti_kernels.c", "derived_stress.c", "reframe_kernels.c", "step_policy.c")
+_KERNEL_HEADERS = ("lti_kernels.h", "derived_stress.h", "reframe_kernels.h", "step_policy.h")
 _FMI2_HEADERS = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 _FMI3_HEADERS = ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")     # fmpy ships them beside
 
@@ -166,7 +166,7 @@ def _lti_entries(lti, inputs: list, outputs: list, params: list, source: NativeS
         "lti.y_to_output": np.array(y_to, np.int32),
         "lti.internal_step": np.int32(role("internal_step")),
         "lti.max_internal_steps": np.int32(role("max_internal_steps") if "internal_step" in params else -1),
-        "lti.log_split": np.int32(1 if source.log_split else 0),
+        "lti.log_split": np.int32(1 if source.log_split else 0), **model_file.derived_entries(lti),
     }
 
 
@@ -296,6 +296,7 @@ model is data (`resources/flexfmu_model.bin`), so the same sources build every n
 | `front_common.c`, `front_common.h` | instance, lock, FMU-state header of both (compiled in `flexfmu_fmi2.c`) |
 | `flexfmu_native.c`, `native_kind.h` | the native bridge: model file, variables, checks, FMU states |
 | `native_lti.c`, `lti_kernels.c`, `lti_kernels.h` | the lti kind: a clamped body as a parameter-dependent LTI system |
+| `derived_stress.c`, `derived_stress.h` | the lti kind's derived outputs: von Mises, a section's largest stresses |
 | `native_reframe.c`, `reframe_kernels.c`, `reframe_kernels.h` | the reframe kind: a free body (exponential scheme) |
 | `native_wec.c` | the wec kind: the point absorber's wave, float, hydro and PTO (its expm from `lti_kernels.c`) |
 | `native_moordyn.c` | the moordyn kind: the Mooring's lines by MoorDyn's library, loaded from `binaries/linux64/` |
@@ -334,12 +335,12 @@ writes `linux64` on any Linux).
   -DCMAKE_BUILD_TYPE=Release`; each followed by `cmake --build` of its folder.
 
 Without CMake: compile `native_front.c flexfmu_fmi3.c flexfmu_native.c native_kinds.c native_lti.c native_reframe.c
-native_wec.c native_moordyn.c lti_kernels.c reframe_kernels.c step_policy.c` into one shared library
-named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
+native_wec.c native_moordyn.c lti_kernels.c derived_stress.c reframe_kernels.c step_policy.c` into one shared
+library named `{name}` with C99, IEEE arithmetic (no fast-math, no FMA contraction: `-ffp-contract=off`), hidden
 symbol visibility (only the fmi2* and fmi3* functions are exported) and libm, e.g.
 `cc -std=c99 -O2 -fPIC -shared -fvisibility=hidden -ffp-contract=off -I. native_front.c flexfmu_fmi3.c
 flexfmu_native.c native_kinds.c native_lti.c native_reframe.c native_wec.c native_moordyn.c lti_kernels.c
-reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
+derived_stress.c reframe_kernels.c step_policy.c -o {name}.so -lm -lpthread -ldl`.
 
 Built with flexfmu {version}; model-file format version {format_version}.
 """

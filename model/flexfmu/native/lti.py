@@ -33,10 +33,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from flexfmu.core.stress import evaluate_derived
 from flexfmu.errors import FlexfmuError, ParameterError
 # the kernel (status codes, bindings) and the quadratics, re-exported: callers import them from flexfmu.native.lti
 from flexfmu.native.lti_kernel import (BAD_ARGUMENT, NONFINITE, OK, SINGULAR, SOURCES,  # noqa: F401
                                        LtiKernel, LtiSimulator, expm, library)
+from flexfmu.native.lti_derived import check_derived, derived_arrays, derived_of_arrays
 from flexfmu.native.lti_quadratic import (fit_quadratic, monomial_names, monomial_pairs, monomials,  # noqa: F401
                                           n_monomials, sample_points)
 
@@ -62,7 +64,10 @@ class LtiModel:
     """The arrays of ffx_lti_model (shapes there) and what the FMU needs around them: the names of the FMU's
     inputs, of the held parameters p and of the outputs; ``u_from_input`` (nu) the FMU input behind each u_k;
     ``p_from_input`` (np) the FMU input behind each p_k, or -1 for a parameter (named in ``param_names``, value
-    ``p_start``).  ``fit_error``: the largest relative differences from the library measured at construction."""
+    ``p_start``).  ``derived``: the outputs computed after the others from them, not linearly (DerivedStress of
+    flexfmu.core.stress: von Mises stresses, a section's largest stresses; their rows of the maps are zero, the C
+    evaluates them by csrc/derived_stress.c).  ``fit_error``: the largest relative differences from the library
+    measured at construction."""
 
     A: np.ndarray
     B: np.ndarray
@@ -81,6 +86,7 @@ class LtiModel:
     p_from_input: np.ndarray
     p_start: np.ndarray
     kind: str = ""
+    derived: tuple = ()
     fit_error: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -107,6 +113,7 @@ class LtiModel:
             raise ParameterError("quad_i", "an index out of range", f"rows < {ny}, z indices < {nz}")
         if len(self.output_names) != ny:
             raise ParameterError("output_names", f"{len(self.output_names)} names", f"{ny}")
+        self.derived = check_derived(self.derived, self.output_names)
 
     # ---- sizes
     @property
@@ -139,10 +146,13 @@ class LtiModel:
 
     # ---- the arrays of the model file (flexfmu.native's model file is written elsewhere)
     def arrays(self) -> dict:
-        """name -> numpy array: the float64 / int32 arrays of ffx_lti_model and of the input map, and the sizes
-        (nx, nu, ny, np, nmono, nquad) as 0-d int32 arrays."""
+        """name -> numpy array: the float64 / int32 arrays of ffx_lti_model and of the input map, the sizes
+        (nx, nu, ny, np, nmono, nquad) as 0-d int32 arrays, and the derived outputs' arrays (derived_*: flexfmu.native.
+        lti_derived; absent when there are none)."""
         out = {name: getattr(self, name) for name in ("A", "B", "b", "Cx", "Cu", "y0", "quad_row", "quad_i", "quad_j",
                                                       "quad_value", "u_from_input", "p_from_input", "p_start")}
+        if self.derived:
+            out.update({f"derived_{k}": v for k, v in derived_arrays(self.derived, self.output_names).items()})
         out.update({name: np.array(getattr(self, name), dtype=np.int32)
                     for name in ("nx", "nu", "ny", "np", "nmono", "nquad")})
         return out
@@ -155,9 +165,13 @@ class LtiModel:
         """The inverse of :meth:`arrays` and :meth:`names`."""
         keys = ("A", "B", "b", "Cx", "Cu", "y0", "quad_row", "quad_i", "quad_j", "quad_value", "u_from_input",
                 "p_from_input", "p_start")
+        derived = ()
+        if "derived_kind" in arrays:
+            derived = derived_of_arrays({k[8:]: v for k, v in arrays.items() if k.startswith("derived_")},
+                                        tuple(names["output_names"]))
         model = cls(**{k: np.asarray(arrays[k]) for k in keys}, **{k: tuple(names[k]) for k in
                                                                     ("input_names", "param_names", "output_names")},
-                    kind=kind)
+                    kind=kind, derived=derived)
         for k in ("nx", "nu", "ny", "np", "nmono", "nquad"):
             if k in arrays and int(arrays[k]) != getattr(model, k):
                 raise ParameterError(k, f"{int(arrays[k])}", f"{getattr(model, k)} (the arrays' size)")
@@ -194,8 +208,11 @@ class LtiModel:
         return y
 
     def outputs(self, x, u, p) -> np.ndarray:
+        """y of (x, u, p): the linear and quadratic part, then the derived outputs from it."""
         Cx, Cu, y0 = self.output_maps(p)
-        return Cx @ x + Cu @ u + y0 + self.quadratic(x, u, p)
+        y = Cx @ x + Cu @ u + y0 + self.quadratic(x, u, p)
+        evaluate_derived(self.derived, self.output_names, y)
+        return y
 
     def kernel(self) -> "LtiKernel":
         return LtiKernel(self)
@@ -214,6 +231,8 @@ class LtiModel:
         probe = lti_probe()
         if kind is not None and probe.model_kind != kind:
             raise ParameterError("simulator", f"a {probe.model_kind} simulator", f"a {kind} simulator")
+        if not probe.derived:                 # the simulator's nonlinear outputs (flexfmu.core.stress.DerivedStress)
+            probe.derived = tuple(getattr(simulator, "derived_outputs", ()))
         return extract(probe)
 
     @classmethod
@@ -253,6 +272,9 @@ class Probe:
     offsets: list
     #: per output row None or V (nmono, nmono): a known term mono(p)^T V mono(p) of degree 4 in p, not in y0(p)
     mono_quadratic: object = None
+    #: the outputs computed from others, not linearly (flexfmu.core.stress.DerivedStress): left out of the fit,
+    #: checked through evaluate_derived (default: the simulator's ``derived_outputs``, LtiModel.from_simulator)
+    derived: tuple = ()
 
 
 def inputs_of(probe: Probe, u, p) -> np.ndarray:
@@ -281,12 +303,16 @@ def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
     A, B, b = (_fit(np.array([d[k] for d in dyn]), probe.offsets) for k in range(3))
     Cx, Cu, y0 = (_fit(np.array([o[k] for o in outs]), probe.offsets) for k in range(3))
     nx, nu, ny = A.shape[1], B.shape[2], y0.shape[1]
+    derived = check_derived(probe.derived, probe.output_names)
+    linear = np.ones(ny, bool)                        # the rows of the linear part (the derived ones: zero rows)
+    linear[[probe.output_names.index(d.output) for d in derived]] = False
+    Cx[:, ~linear], Cu[:, ~linear], y0[:, ~linear] = 0.0, 0.0, 0.0
 
     mono_terms = []                                   # (row, a, b, v) over mono indices
     if probe.mono_quadratic is not None:
         V = probe.mono_quadratic
         for r in range(ny):
-            if V[r] is None:
+            if V[r] is None or not linear[r]:
                 continue
             for a in range(nmono):
                 for c in range(a, nmono):
@@ -312,7 +338,7 @@ def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
         x, u = w[:nx], w[nx:]
         v = inputs_of(probe, u, np.where(probe.p_from_input >= 0, 0.0, p_par))
         p = p_of(probe, v, p_par)
-        y = probe.outputs(x, v, p)
+        y = np.where(linear, probe.outputs(x, v, p), 0.0)
         lin = linear_part(x, u, p)
         return y - lin, np.abs(y) + np.abs(lin)
 
@@ -345,7 +371,8 @@ def extract(probe: Probe, rng_seed: int = 20261121) -> LtiModel:
     model = LtiModel(A=A, B=B, b=b, Cx=Cx, Cu=Cu, y0=y0, quad_row=q[:, 0], quad_i=q[:, 1], quad_j=q[:, 2],
                      quad_value=q[:, 3], input_names=probe.input_names, param_names=probe.param_names,
                      output_names=probe.output_names, u_from_input=probe.u_from_input,
-                     p_from_input=probe.p_from_input, p_start=probe.p_start, kind=probe.model_kind)
+                     p_from_input=probe.p_from_input, p_start=probe.p_start, kind=probe.model_kind,
+                     derived=derived)
     model.fit_error = _check(model, probe, np.random.default_rng(rng_seed))
     worst = max(model.fit_error.values())
     if not worst <= FIT_TOLERANCE:
@@ -377,8 +404,13 @@ def _rel(a, b) -> float:
 
 def _check(model: LtiModel, probe: Probe, rng) -> dict:
     """Largest relative differences (per matrix, relative to its largest entry; outputs per row) between the model
-    and the library at random p (base rotation up to ~ 3 rad/s, 10 rad/s^2, damping in [0, 0.5)) and (x, u)."""
+    and the library at random p (base rotation up to ~ 3 rad/s, 10 rad/s^2, damping in [0, 0.5)) and (x, u).  The
+    derived outputs apart ("derived"): each against the library's relative to the larger of it and the derived
+    value of its sources' sizes (the formulas are norms of the sources, so that is its size)."""
     err = {"A": 0.0, "B": 0.0, "b": 0.0, "outputs": 0.0}
+    derived_rows = [model.output_names.index(d.output) for d in model.derived]
+    if derived_rows:
+        err["derived"] = 0.0
     for _ in range(3):
         p = np.array([rng.uniform(0.0, 0.5) if name == "damping_ratio" else
                       rng.uniform(-3.0, 3.0) if name.startswith("base_w") else rng.uniform(-10.0, 10.0)
@@ -395,6 +427,12 @@ def _check(model: LtiModel, probe: Probe, rng) -> dict:
         Cx, Cu, y0 = model.output_maps(p)
         scale = np.abs(Cx) @ np.abs(x) + np.abs(Cu) @ np.abs(u) + np.abs(y0) + np.abs(model.quadratic(x, u, p))
         scale = np.maximum(scale, np.abs(y_lib))
+        if derived_rows:
+            size = scale.copy()
+            evaluate_derived(model.derived, model.output_names, size)
+            d = np.abs(y - y_lib)[derived_rows] / np.maximum(np.maximum(size, np.abs(y_lib))[derived_rows], 1e-300)
+            err["derived"] = max(err["derived"], float(np.max(d)))
+            scale[derived_rows] = 0.0
         ok = scale > 0
         if np.any(ok):
             err["outputs"] = max(err["outputs"], float(np.max(np.abs(y - y_lib)[ok] / scale[ok])))

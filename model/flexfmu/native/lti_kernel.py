@@ -1,7 +1,8 @@
 """The C kernel of flexfmu.native.lti's models (csrc/lti_kernels.c) through ctypes: the compiled library, its
 matrix exponential, the step and outputs of an LtiModel (LtiKernel) and a minimal simulator on them (LtiSimulator).
-The structures mirror csrc/lti_kernels.h.  The model is an flexfmu.native.lti.LtiModel, which imports this
-module (so this one names it without importing it)."""
+The structures mirror csrc/lti_kernels.h; the derived outputs (flexfmu.native.lti_derived) are evaluated after the
+others by csrc/derived_stress.c, as the native FMU does.  The model is an flexfmu.native.lti.LtiModel, which imports
+this module (so this one names it without importing it)."""
 from __future__ import annotations
 
 import ctypes
@@ -12,7 +13,7 @@ import numpy as np
 from flexfmu.errors import NonFiniteError, ParameterError
 from flexfmu.native.compiler import CSRC, load_kernels
 
-SOURCES = (CSRC / "lti_kernels.c",)
+SOURCES = (CSRC / "lti_kernels.c", CSRC / "derived_stress.c")
 OK, NONFINITE, SINGULAR, BAD_ARGUMENT = 0, 1, 2, 3
 
 
@@ -70,7 +71,13 @@ def library() -> ctypes.CDLL:
                 ("ffx_lti_taylor_prepare", c_int, [vp, vp, vp, c_double, c_long, vp]),
                 ("ffx_lti_taylor_steps", c_int, [vp, c_long, vp, vp]),
                 ("ffx_lti_steps_held", c_int, [vp, vp, vp, c_double, c_long, vp, vp, vp]),
-                ("ffx_lti_status_string", ctypes.c_char_p, [c_int])):
+                ("ffx_lti_status_string", ctypes.c_char_p, [c_int]),
+                ("ffx_derived_evaluate", None, [c_int, vp, vp, vp, vp, vp, vp, vp]),
+                ("ffx_derived_directional", None, [c_int, vp, vp, vp, vp, vp, vp, vp]),
+                ("ffx_derived_check", c_int, [c_int, vp, vp, vp, vp, vp, c_int, vp, vp]),
+                ("ffx_von_mises", c_double, [vp]),
+                ("ffx_section_sigma_max", c_double, [c_int, vp, c_double, c_double, c_double]),
+                ("ffx_section_von_mises", c_double, [c_int, vp, c_double, c_double, c_double, c_double])):
             f = getattr(lib, name)
             f.restype, f.argtypes = res, args
         lib._ffx_lti_declared = True
@@ -129,6 +136,11 @@ class LtiKernel:
         self._step, self._outputs = lib.ffx_lti_steps, lib.ffx_lti_outputs
         self._step_held = lib.ffx_lti_steps_held
         self._nx, self._ny = model.nx, model.ny
+        # the derived outputs: (n, kind, shape, output, sources, fibres) as ffx_derived_evaluate takes them
+        self._derived = None
+        if model.derived:
+            self._derived = (len(model.derived), *(a[f"derived_{k}"].ctypes.data for k in ("kind", "shape", "output",
+                                                                                          "sources", "fibres")))
 
     def _load(self, x, u, p) -> None:
         m = self.model
@@ -192,6 +204,8 @@ class LtiKernel:
         status = self._outputs(self._maps_addr, self._ap, self._ax, self._au, self._ay)
         if status != OK:
             raise self._fail(status, "outputs")
+        if self._derived is not None:
+            self.lib.ffx_derived_evaluate(*self._derived, None, self._ay)
         return self._y[:self._ny].copy()
 
     def step_maps(self, p, h: float):

@@ -13,6 +13,14 @@
  *   lti.y_to_output   int32 (ny)   the FMU output (index in the FMU's output order) of each y_k
  *   lti.internal_step, lti.max_internal_steps   int32 scalars: the runtime parameters with these roles, or -1
  *   lti.log_split     int32 scalar: 1 = log (status OK) how a communication step is split, when that changes
+ * and, optional (none: no derived outputs; flexfmu.fmi.model_file.derived_entries writes them), the outputs computed
+ * after the others from them, not linearly (derived_stress.h: von Mises stresses, a beam section's largest stresses;
+ * their rows of Cx, Cu, y0 are zero), n_derived of them:
+ *   lti.derived.kind, lti.derived.shape, lti.derived.output   int32 (n_derived): FFX_DERIVED_*, FFX_SECTION_*, the
+ *                     y_k (index among the model's outputs, as lti.quad_row) it is written to
+ *   lti.derived.sources  int32 (n_derived, 6): the y_k it is computed from (-1 after the kind's number of them)
+ *   lti.derived.fibres   float64 (n_derived, 7): the section's A, Iy, Iz, J, y_max, z_max, torsion_arm (SI)
+ * checked at load (ffx_derived_check: a bad one refuses the model file, naming the entry and its output).
  *
  * A communication step h is one exact zero-order-hold step, or with internal_step > 0 n = ceil(h /
  * internal_step) equal exact steps (as flexfmu.body.engines.ClampedEngine), refused beyond max_internal_steps
@@ -28,6 +36,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "derived_stress.h"
 #include "flexfmu_bridge.h"
 #include "lti_kernels.h"
 #include "native_kind.h"
@@ -41,13 +50,17 @@ typedef struct {
     int internal_step, max_internal_steps, log_split;
     int *quadratic; /* per p_k: appears in a degree-2 monomial with a non-zero coefficient */
     int *quad_row, *quad_i, *quad_j, *quad_start;
+    int n_derived; /* the derived outputs (derived_stress.h), 0: none */
+    const int32_t *derived_kind, *derived_shape, *derived_output, *derived_sources;
+    const double *derived_fibres;
 } LtiModel;
 
 typedef struct {
     const LtiModel *m;
     ffx_lti_maps maps;
     double *work, *p, *p_before, *u, *y, *params;
-    int *rows; /* the y_k asked for (outputs) */
+    int *rows;           /* the y_k asked for (outputs) */
+    unsigned char *need; /* per y_k: asked for, or a source of a derived output asked for */
     double internal_step;
     long cap, last_split;
     double last_h; /* internal step of the last step (for the culprit) */
@@ -55,6 +68,32 @@ typedef struct {
        u and p, z = [x; u; mono] and its derivative (the quadratic output terms) */
     double *mono, *dmono, *du, *dp, *z, *dz, *dy;
 } LtiSim;
+
+/* The optional derived-output entries (header comment), checked; 0, or -1 with why naming the entry. */
+static int load_derived(LtiModel *m, const NativeFile *file, char *why, size_t why_size) {
+    uint32_t s[NATIVE_MAX_DIMS];
+    if (!native_entry(file, "lti.derived.kind")) return 0; /* a model without derived outputs (or an older file) */
+    if (native_i32(file, "lti.derived.kind", 1, NULL, &m->derived_kind, s, why, why_size) < 0) return -1;
+    long n = s[0], ns[1] = {n}, sources[2] = {n, FFX_DERIVED_MAX_SOURCES}, fibres[2] = {n, FFX_DERIVED_N_FIBRES};
+    if (native_i32(file, "lti.derived.shape", 1, ns, &m->derived_shape, NULL, why, why_size) < 0
+        || native_i32(file, "lti.derived.output", 1, ns, &m->derived_output, NULL, why, why_size) < 0
+        || native_i32(file, "lti.derived.sources", 2, sources, &m->derived_sources, NULL, why, why_size) < 0
+        || native_f64(file, "lti.derived.fibres", 2, fibres, &m->derived_fibres, NULL, why, why_size) < 0)
+        return -1;
+    const char *what = "", *allowed = "";
+    int ny = m->kernel.ny;
+    int bad = ffx_derived_check((int)n, m->derived_kind, m->derived_shape, m->derived_output, m->derived_sources,
+                                m->derived_fibres, ny, &what, &allowed);
+    if (bad >= 0) {
+        int32_t out = m->derived_output[bad];
+        const char *name = out >= 0 && out < ny ? m->layout.output_names[m->y_to_output[out]] : "(none)";
+        snprintf(why, why_size, "model file entry lti.derived [%d] (output %s) has %s (allowed: %s)", bad, name, what,
+                 allowed);
+        return -1;
+    }
+    m->n_derived = (int)n;
+    return 0;
+}
 
 static void *load(const NativeFile *file, const NativeLayout *layout, char *why, size_t why_size) {
     LtiModel *m = calloc(1, sizeof *m);
@@ -139,6 +178,7 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
         snprintf(why, why_size, "the model file's lti arrays are inconsistent (sizes or quadratic-term indices)");
         goto fail;
     }
+    if (load_derived(m, file, why, why_size) < 0) goto fail;
     /* which p enter squared (for naming the culprit of an overflow: the spin enters squared) */
     long k = 1 + np;
     size_t sizes[6]
@@ -187,6 +227,7 @@ static void free_sim(void *sim) {
     free(s->y);
     free(s->params);
     free(s->rows);
+    free(s->need);
     free(s->mono);
     free(s->dmono);
     free(s->du);
@@ -207,7 +248,7 @@ static void *init(const void *model, const double *params, const char *const *te
         || !(s->p_before = calloc((size_t)k->np + 1, sizeof(double)))
         || !(s->u = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->y = calloc((size_t)k->ny + 1, sizeof(double)))
         || !(s->params = calloc(m->layout.n_params + 1, sizeof(double)))
-        || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int)))
+        || !(s->rows = calloc((size_t)k->ny + 1, sizeof(int))) || !(s->need = calloc((size_t)k->ny + 1, 1))
         || !(s->mono = calloc((size_t)k->nmono + 1, sizeof(double)))
         || !(s->dmono = calloc((size_t)k->nmono + 1, sizeof(double)))
         || !(s->du = calloc((size_t)k->nu + 1, sizeof(double))) || !(s->dp = calloc((size_t)k->np + 1, sizeof(double)))
@@ -338,19 +379,36 @@ static int step_held(void *sim, double *x, const double *in_before, const double
     return NATIVE_NOT_FINITE; /* the state overflows: the bridge names the culprit */
 }
 
-/* Only the outputs asked for: a host often reads a few of them (an accelerometer of a 25-output body). */
+/* Only the outputs asked for: a host often reads a few of them (an accelerometer of a 25-output body).  A derived
+   output asked for brings its sources (they are written too, and marked in which), then is computed from them. */
 static int outputs(void *sim, const double *x, const double *in, double *y, unsigned char *which, NativeResult *r) {
     LtiSim *s = sim;
     const LtiModel *m = s->m;
     assemble(s, in);
-    int n = 0;
-    for (int k = 0; k < m->kernel.ny; k++) { /* branch-free: which is a pattern the predictor does not learn */
+    int n = 0, ny = m->kernel.ny;
+    if (m->n_derived) {
+        for (int k = 0; k < ny; k++) s->need[k] = which[m->y_to_output[k]] != 0;
+        for (int d = 0; d < m->n_derived; d++) {
+            if (!s->need[m->derived_output[d]]) continue;
+            const int32_t *src = m->derived_sources + (size_t)d * FFX_DERIVED_MAX_SOURCES;
+            for (int i = 0; i < ffx_derived_n_sources(m->derived_kind[d]); i++) s->need[src[i]] = 1;
+        }
+    }
+    const unsigned char *asked = m->n_derived ? s->need : NULL;
+    for (int k = 0; k < ny; k++) { /* branch-free: which is a pattern the predictor does not learn */
         s->rows[n] = k;
-        n += which[m->y_to_output[k]] != 0;
+        n += (asked ? asked[k] : which[m->y_to_output[k]]) != 0;
     }
     int status = ffx_lti_output_rows(&s->maps, s->p, x, s->u, s->rows, n, s->y);
     if (status == FFX_LTI_BAD_ARGUMENT) return native_refuse(r, BRIDGE_ERROR, "%s", ffx_lti_status_string(status));
-    for (int q = 0; q < n; q++) y[m->y_to_output[s->rows[q]]] = s->y[s->rows[q]];
+    if (m->n_derived)
+        ffx_derived_evaluate(m->n_derived, m->derived_kind, m->derived_shape, m->derived_output, m->derived_sources,
+                             m->derived_fibres, s->need, s->y);
+    for (int q = 0; q < n; q++) {
+        int out = m->y_to_output[s->rows[q]];
+        y[out] = s->y[s->rows[q]];
+        which[out] = 1;
+    }
     return status == FFX_LTI_OK ? BRIDGE_OK : NATIVE_NOT_FINITE;
 }
 
@@ -473,6 +531,12 @@ static int directional(void *sim, const double *x, const double *in, const doubl
     for (int q = 0; q < k->nquad; q++) {
         int i = k->quad_i[q], j = k->quad_j[q];
         d[k->quad_row[q]] += k->quad_value[q] * (s->dz[i] * s->z[j] + s->z[i] * s->dz[j]);
+    }
+    if (m->n_derived) { /* the chain rule on the sources' values and derivatives */
+        int status = ffx_lti_output_rows(&s->maps, s->p, x, s->u, NULL, k->ny, s->y);
+        if (status == FFX_LTI_BAD_ARGUMENT) return native_refuse(r, BRIDGE_ERROR, "%s", ffx_lti_status_string(status));
+        ffx_derived_directional(m->n_derived, m->derived_kind, m->derived_shape, m->derived_output, m->derived_sources,
+                                m->derived_fibres, s->y, d);
     }
     int finite = 1;
     for (int q = 0; q < k->ny; q++) {
