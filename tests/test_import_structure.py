@@ -53,8 +53,10 @@ LAYERS = [
     #   sizes, ffr, reframe and body.
     # native: the compiled per-step kernels and their ctypes bindings, which ffr, reframe and body call; each of
     #   those describes its own maps to it (flexfmu.ffr.lti_probe, flexfmu.body.lti_probe), so native imports none.
-    # The two are independent of each other.
-    ("sizing", "native"),
+    # fatigue: rainflow counting, S-N curves and Miner damage of stress histories (arrays or result CSVs); it needs
+    #   nothing of the models, so the layers above may assess what they compute.
+    # The three are independent of each other.
+    ("sizing", "native", "fatigue"),
     # the FFR discontinuous beam: scene, mesh, assembly, dynamics, FFRBeam's simulator (sized by sizing)
     ("ffr",),
     # the reframe integrator; its model specs include ``beam:<scene>``, a Structure from ffr's assembly
