@@ -65,6 +65,9 @@ LAYERS = [
     # reframe kernels, sizing.interfaces).  Siblings: a body is built from a Structure, wherever it came from; the
     # callers join the two (flexfmu.cli, flexfmu.wec.barge, examples/).
     ("importers", "body"),
+    # viz: the deformed body as pictures (VTK series, animations) from a shape file or a model's mode shapes; it
+    #   reads body's shape file and stress, knows nothing of FMI (the command line opens the FMUs and result CSVs)
+    ("viz",),
     # the only place that knows FMI: wraps the simulators of ffr, reframe, body (registry, plumbing, build, export)
     ("fmi",),
     # co-simulation masters over the registry's FMUs or their simulators, OSP and SSP system files

@@ -14,6 +14,8 @@
     flexfmu cosim SYSTEM_FILE --t-end T [--step H] [--out results.csv] [--master fmpy|libcosim|ecos|library]
                     [--scheme gauss-seidel|jacobi|interface-jacobian|step-jacobian] [--fmu-dir DIR] [--plot PNG]
                     [--set INSTANCE.VARIABLE=VALUE]...
+    flexfmu animate RESULT.csv --fmu BODY.fmu [--out anim.gif] [--vtk DIR] [--scale S] [--fps N] [--every K]
+                    [--instance NAME] [--still PNG]
     flexfmu fatigue RESULT.csv --gauge COLUMN (--sn m,log10a[,cutoff] | --curve DNV-D|BS-F ...) [--cut-off S|limit]
                     [--unit Pa] [--t-start T] [--out table.csv] [--plot hist.png]
     flexfmu wec power-matrix [SYSTEM_FILE] [--hs H1,H2,..] [--tp T1,T2,..] [--seeds N] [--t-end T]
@@ -30,7 +32,7 @@ import argparse
 import sys
 
 # one module per command, its parser and handler together; the library does the work
-from flexfmu.cli import bench, build, cosim, cross_check, export, fatigue, modal, reframe, wec
+from flexfmu.cli import animate, bench, build, cosim, cross_check, export, fatigue, modal, reframe, wec
 from flexfmu.cli.bench import BENCH_STUDIES
 from flexfmu.errors import FlexfmuError
 
@@ -40,7 +42,7 @@ __all__ = ["BENCH_STUDIES", "build_parser", "main"]
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="flexfmu", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
-    for command in (modal, export, build, reframe, cosim, fatigue, wec, bench, cross_check):
+    for command in (modal, export, build, reframe, cosim, fatigue, animate, wec, bench, cross_check):
         command.add_parser(sub)
     modal.add_main_parser(sub)
     return parser

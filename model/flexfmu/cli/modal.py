@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from flexfmu.cli.model_file import add_model_options, load_user_model
@@ -79,6 +80,7 @@ def _modal_structure(args: argparse.Namespace) -> int:
     if args.plot is not None:
         from flexfmu.body.modes import plot_modes
         print(f"wrote {plot_modes(structure, modes, args.plot)}")
+    _animate_modes(args, structure, modes.shapes, modes.frequencies_hz, None)
     return 0
 
 
@@ -124,7 +126,35 @@ def _modal(args: argparse.Namespace) -> int:
         modes = NaturalModes(scene.name, "clamped" if model.clamped_nodes.size else "free", f"boundary {boundary}",
                              result.modes.frequencies_hz, model.B2 @ result.modes.shapes, float("nan"))
         print(f"wrote {plot_modes(structure, modes, args.plot)}")
+    if args.animate is not None or args.vtk is not None:
+        model = result.model
+        _animate_modes(args, model.structure(), model.B2 @ result.modes.shapes, result.modes.frequencies_hz,
+                       {"line": model.mesh.elements})
     return 0
+
+
+def _animate_modes(args: argparse.Namespace, structure, shapes, frequencies_hz, cells) -> None:
+    """--animate GIF: every mode oscillating over one period, side by side, each scaled to 10 % of the model's
+    size and coloured by its von Mises stress (solids with cells; else |u|) relative to its largest; --vtk DIR: the
+    modes as the frames of a VTK series (frame k = mode k, the mass-normalised shape as the displacement)."""
+    if args.animate is None and args.vtk is None:
+        return
+    from flexfmu.viz.animate import animate, check_output
+    from flexfmu.viz.modes import mode_pictures
+    from flexfmu.viz.vtk import write_vtk_series
+
+    if args.animate is not None:
+        check_output(args.animate)                    # before the stress shapes are evaluated
+    pictures = mode_pictures(structure, shapes, frequencies_hz, cells=cells)
+    if pictures.stress is None:
+        print(f"flexfmu modal: note: the animation is coloured by |u|: {pictures.why_no_stress}", file=sys.stderr)
+    if args.vtk is not None:
+        print(f"wrote {write_vtk_series(pictures.as_frames(), args.vtk, basename='mode')} "
+              f"({pictures.frequencies_hz.size} modes as frames)")
+    if args.animate is not None:
+        done = animate(pictures.oscillating(), args.animate, fps=12,
+                       title=f"{pictures.name or 'model'}: the modes, each over one period")
+        print(f"wrote {done.path} ({done.frames} frames per period)")
 
 
 def _main_job(args: argparse.Namespace) -> int:
@@ -147,6 +177,13 @@ def add_parser(sub) -> None:
                        help=f"built-in scene ({', '.join(builtin_scene_names())}), a scene JSON, or a model file/spec")
     add_model_options(modal)
     modal.add_argument("--plot", type=Path, default=None, metavar="PNG", help="draw the mode shapes into PNG")
+    modal.add_argument("--animate", type=Path, nargs="?", const=Path("modes.gif"), default=None, metavar="OUT.gif",
+                       help="animate the modes, each oscillating, coloured by the von Mises stress of the mode shape "
+                            "(solid models with cells; else by |u|), into OUT.gif (default modes.gif; .mp4 with "
+                            "ffmpeg)")
+    modal.add_argument("--vtk", type=Path, default=None, metavar="DIR",
+                       help="write the modes as a VTK series, DIR/mode.pvd (frame k = mode k: point data "
+                            "displacement, von_mises)")
     modal.add_argument("--boundary", choices=BOUNDARY_PRESETS, default=None,
                        help="clamp preset; default: the scene's own clamps. "
                             + "; ".join(f"{k}: {v}" for k, v in BOUNDARY_HELP.items()))
