@@ -179,21 +179,25 @@ def _inputs(t: float) -> dict:
             **{f"base_w_{a}": v for a, v in w.items()}, **{f"base_dw_{a}": v for a, v in dw.items()}}
 
 
-def python_run(sim, derived, n_steps: int, h: float = H) -> np.ndarray:
+def _input_vector(names, t: float) -> list:
+    """The FMU inputs ``names`` at t (an exported body's NAME.F_x as FFRBeam's F_x)."""
+    values = _inputs(t)
+    return [values[n.rpartition(".")[2]] for n in names]
+
+
+def python_run(sim, derived, inputs, outputs, n_steps: int, h: float = H) -> np.ndarray:
     """The Python simulator's outputs at 0, h, .. n h, the derived ones by evaluate_derived: the inputs at t_k held
     over the step after t_k, the outputs at t_k (k > 0) those of the state with the inputs its step held (a native
     co-simulation FMU's inputs are held from fmi2DoStep on)."""
-    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES
     rows = []
     for k in range(n_steps + 1):
         if k:
             sim.step(h)
         y = np.array(sim.output_vector(), dtype=float) if k else None
-        v = _inputs(k * h)
-        sim.set_input_vector([v[n] for n in INPUT_NAMES])
+        sim.set_input_vector(_input_vector(inputs, k * h))
         if not k:
             y = np.array(sim.output_vector(), dtype=float)
-        evaluate_derived(derived, OUTPUT_NAMES, y)
+        evaluate_derived(derived, outputs, y)
         rows.append(y)
     return np.array(rows)
 
@@ -204,21 +208,21 @@ def relative_errors(mine, ref) -> np.ndarray:
     return np.abs(mine - ref).max(axis=0) / np.where(scale > 0, scale, 1.0)
 
 
-def native_run(fmu, n_steps: int, h: float = H, first=(), **start) -> tuple[np.ndarray, np.ndarray]:
-    """(every output at 0, h, .. n h as python_run's, the outputs ``first`` as read alone before the others)."""
+def native_run(fmu, inputs, outputs, n_steps: int, h: float = H, first=(), **start):
+    """(the outputs ``outputs`` at 0, h, .. n h as python_run's, the outputs ``first`` as read alone before the
+    others) of the native FMU ``fmu`` with the FMU inputs ``inputs``."""
     from fmu_helpers import Instance
-    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES
     inst = Instance(fmu, "gauges", **start)
     try:
-        inst.set(**_inputs(0.0))
+        inst.set(**dict(zip(inputs, _input_vector(inputs, 0.0))))
         inst.initialize()
         rows, alone = [], []
         for k in range(n_steps + 1):
             if k:
                 inst.fmu.doStep(currentCommunicationPoint=(k - 1) * h, communicationStepSize=h)
-                inst.set(**{n: v for n, v in _inputs(k * h).items() if n in INPUT_NAMES})
+                inst.set(**dict(zip(inputs, _input_vector(inputs, k * h))))
             alone.append(inst.get(*first) if first else [])
-            rows.append(inst.get(*OUTPUT_NAMES))
+            rows.append(inst.get(*outputs))
         return np.array(rows), np.array(alone)
     finally:
         inst.free()
@@ -237,14 +241,127 @@ def standin_fmu(tmp_path_factory, standin):
 def test_the_stand_in_fmu_equals_the_python_simulator(standin_fmu):
     """Every output over 0.4 s of moving loads and base motion, the derived ones also read alone (their sources
     computed with them): equal to the Python simulator's with evaluate_derived to RTOL of each output's scale."""
-    from flexfmu.ffr.simulator import OUTPUT_NAMES
+    from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES
     n = 400
     first = tuple(d.output for d in STANDIN)
-    ours, alone = native_run(standin_fmu, n, first=first)
-    theirs = python_run(_standin_simulator(), STANDIN, n)
+    ours, alone = native_run(standin_fmu, INPUT_NAMES, OUTPUT_NAMES, n, first=first)
+    theirs = python_run(_standin_simulator(), STANDIN, INPUT_NAMES, OUTPUT_NAMES, n)
     errors = relative_errors(ours, theirs)
     worst = int(np.argmax(errors))
     assert errors.max() < RTOL, (OUTPUT_NAMES[worst], errors[worst])
     rows = [OUTPUT_NAMES.index(d) for d in first]
     assert np.array_equal(alone, ours[:, rows])
     assert (np.abs(theirs[:, rows]).max(axis=0) > 0).all() and np.ptp(theirs[:, rows], axis=0).min() > 0
+
+
+def _instantiate_edited(fmu, tmp_path, edit) -> tuple[bool, list]:
+    """Instantiate ``fmu`` with its model file's entries edited by ``edit`` (entries dict, in place): (instantiated,
+    log messages); the instance is freed."""
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+    from flexfmu.fmi.model_file import MODEL_FILE, read_model_file, write_model_file
+    folder = tmp_path / f"fmu{len(list(tmp_path.iterdir()))}"
+    with zipfile.ZipFile(fmu) as archive:
+        archive.extractall(folder)
+    entries = read_model_file(folder / "resources" / MODEL_FILE)
+    edit(entries)
+    write_model_file(folder / "resources" / MODEL_FILE, entries)
+    md = read_model_description(str(fmu))
+    log = []
+    logger = fmi2CallbackLoggerTYPE(lambda c, name, status, category, message: log.append(message.decode()))
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = logger
+    callbacks.allocateMemory = ctypes.cast(None, type(callbacks.allocateMemory))
+    callbacks.freeMemory = ctypes.cast(None, type(callbacks.freeMemory))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(folder), modelIdentifier=md.coSimulation.modelIdentifier,
+                      instanceName="edited")
+    try:
+        slave.instantiate(callbacks=callbacks)
+    except Exception:                     # fmpy: the instance is NULL
+        slave.freeLibrary()
+        return False, log
+    slave.freeInstance()
+    slave.freeLibrary()
+    shutil.rmtree(folder, ignore_errors=True)
+    return True, log
+
+
+def _set(name, index, value):
+    """An edit of the model file's entry ``name`` at ``index`` to ``value`` (a function of the model's number of
+    outputs and of the stand-in's derived rows: the value may depend on them)."""
+    def edit(entries):
+        ny, rows = entries["lti.y0"].shape[1], list(entries["lti.derived.output"])
+        entries[name][index] = value(ny, rows) if callable(value) else value
+    return edit
+
+
+@pytest.mark.parametrize("edit, output, what", [
+    (_set("lti.derived.fibres", (0, 0), math.nan), "elastic_energy", "section constant"),
+    (_set("lti.derived.fibres", (1, 3), -1.0), "f_5", "section constant"),
+    (_set("lti.derived.kind", 2, 7), "f_6", "unknown kind"),
+    (_set("lti.derived.shape", 2, 1), "f_6", "section shape"),
+    (_set("lti.derived.sources", (1, 2), lambda ny, rows: ny), "f_5", "source index"),
+    (_set("lti.derived.sources", (1, 4), 0), "f_5", "source index"),
+    (_set("lti.derived.sources", (2, 0), lambda ny, rows: rows[0]), "f_6", "derived output as a source"),
+    (_set("lti.derived.output", 1, lambda ny, rows: rows[0]), "elastic_energy", "another entry computes"),
+    (_set("lti.derived.output", 0, -1), "(none)", "output index"),
+], ids=["nan-constant", "negative-J", "kind", "shape", "source-range", "source-padding", "chained", "twice",
+        "output-range"])
+def test_bad_derived_entries_are_refused_naming_the_entry(standin_fmu, tmp_path, edit, output, what):
+    made, log = _instantiate_edited(standin_fmu, tmp_path, edit)
+    assert not made
+    assert any("lti.derived" in m and f"(output {output})" in m and what in m and "allowed:" in m for m in log), log
+
+
+def test_a_model_file_without_derived_entries_loads(standin_fmu, tmp_path):
+    """An older model file (no lti.derived.* entries) loads; a wrongly shaped one is refused naming it."""
+    def drop(entries):
+        for name in [n for n in entries if n.startswith("lti.derived.")]:
+            del entries[name]
+    made, log = _instantiate_edited(standin_fmu, tmp_path, drop)
+    assert made, log
+
+    def short(entries):
+        entries["lti.derived.fibres"] = entries["lti.derived.fibres"][:, :6].copy()
+    made, log = _instantiate_edited(standin_fmu, tmp_path, short)
+    assert not made and any("lti.derived.fibres" in m for m in log), log
+
+
+# ---------------------------------------------------------------------------------------------- an exported body
+@pytest.fixture(scope="module")
+def bracket(tmp_path_factory):
+    """examples/bracket clamped at its bolts, a tip interface, two gauges (a node set's averaged stress, and a point's)
+    (docs/export.md's command with --gauge): (body, native FMU)."""
+    pytest.importorskip("meshio")
+    from flexfmu.body.build import build_body, clamp_from_text
+    from flexfmu.body.interfaces import interface_from_text
+    from flexfmu.fmi.native import export_native
+    from flexfmu.importers import load_structure
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1]
+    structure = load_structure(root / "examples" / "bracket" / "bracket.json")
+    body = build_body(structure, interfaces=[interface_from_text("tip=arm_top")],
+                      clamp=clamp_from_text(structure, "bolt_1,bolt_2"), n_modes=8,
+                      gauges=["root=bolt_1", "arm=0.04,0.02,0.003"])
+    return body, export_native(body, tmp_path_factory.mktemp("bracket") / "BracketGauges.fmu")
+
+
+def test_the_exported_bodys_gauges_equal_the_python_simulator(bracket):
+    """Every output (the gauges' stress and strain components and von Mises among them) over 0.3 s of moving
+    interface loads and base motion: the native FMU equals the body's Python simulator to RTOL."""
+    from flexfmu.body.simulator import FlexBodySimulator
+    body, fmu = bracket
+    sim = FlexBodySimulator(body, body.config_class())
+    names = tuple(sim.output_names)
+    gauges = [k for k, n in enumerate(names) if n.startswith(("root.", "arm."))]
+    assert len(gauges) == 2 * 13 and len(sim.derived_outputs) == 2
+    n = 300
+    first = tuple(d.output for d in sim.derived_outputs)
+    ours, alone = native_run(fmu, tuple(sim.input_names), names, n, first=first)
+    theirs = python_run(sim, sim.derived_outputs, tuple(sim.input_names), names, n)
+    errors = relative_errors(ours, theirs)
+    worst = int(np.argmax(errors))
+    assert errors.max() < RTOL, (names[worst], errors[worst])
+    assert np.array_equal(alone, ours[:, [names.index(d) for d in first]])
+    assert np.ptp(theirs[:, gauges], axis=0).min() > 0          # every gauge output moves
