@@ -241,3 +241,30 @@ def test_case_csv_is_the_generator_output(tmp_path):
     fresh = tmp_path / "case.csv"
     write_case_csv(fresh)
     assert fresh.read_text() == CASE_CSV.read_text()
+
+
+@pytest.mark.parametrize("n", [1, 2, 4])
+def test_first_moment_of_each_mode_is_its_root_curvature_over_omega_squared(n):
+    """int x rho A phi_n dx = EI phi_n''(0) / omega_n^2 = (rho A L^2 / 2) s_n / Gamma_n: the identity behind the
+    reaction moment (10), by quadrature of the mode shape."""
+    c = CASE
+    first_moment = quad(lambda x: x * c.rho * c.A * float(c.mode_shape(n, x)), 0, c.L, limit=200)[0]
+    x = cantilever_roots(n)[-1]
+    gamma = math.sqrt(c.rho * c.A * c.L) * 2 * mode_sigma(x) / x
+    assert first_moment == pytest.approx(c.static_root_moment * c.root_moment_shares(n)[-1] / gamma, rel=1e-8)
+
+
+def test_reaction_equals_the_elastic_moment_without_damping_and_differs_by_the_damping_moment_with_it():
+    w = np.array([0.5, 1.5, 8.0]) * CASE.natural_frequencies(1)[0]       # not on a pole of the undamped rod
+    undamped = Cantilever(CASE.L, CASE.E, CASE.I, CASE.rho, CASE.A, zeta=0.0)
+    np.testing.assert_allclose(undamped.root_reaction_transfer(w), undamped.root_moment_transfer(w), rtol=1e-12,
+                               equal_nan=False)
+    w = np.append(w, CASE.natural_frequencies(1)[0])                       # damped: the resonance too
+    # with damping: the mode-n terms differ by the factor (1 + 2 i zeta w / omega_n), Eq. (10)
+    omega = CASE.natural_frequencies()
+    shares = CASE.root_moment_shares()
+    H = 1.0 / (omega[None] ** 2 - w[:, None] ** 2 + 2j * CASE.zeta * omega[None] * w[:, None])
+    damping_moment = -CASE.static_root_moment * np.sum(shares * omega**2 * H * 2j * CASE.zeta * w[:, None]
+                                                       / omega, axis=1)
+    np.testing.assert_allclose(CASE.root_reaction_transfer(w), CASE.root_moment_transfer(w) + damping_moment,
+                               rtol=1e-12, equal_nan=False)

@@ -40,6 +40,13 @@ Derivation
 (9) Check, undamped (zeta = 0), by Krylov's functions: W = a0 / w^2 + homogeneous; the boundary conditions give
         G0(w) = -rho A L^2 sinh z sin z / (z^2 (1 + cosh z cos z)),   z = L (rho A w^2 / EI)^(1/4),
     -> -rho A L^2 / 2 as w -> 0, poles at the natural frequencies.
+(10) The clamp's reaction moment by d'Alembert, R = -int rho A x a_abs dx (what FFRBeam's reaction_M outputs), is not
+    (4) when zeta > 0: integrating x (1) over the rod, EI w_xx(0) = R - int x c dx, the damping forces' moment; with
+    modal damping int x c dx = sum_n 2 zeta omega_n q_n' int x rho A phi_n dx = sum_n 2 zeta q_n' EI phi_n''(0) / omega_n.
+    So R = a0 G_R e^{i w t} with the mode-n factor (1 + 2 i zeta w / omega_n), which gives
+        G_R(w) = -(rho A L^2 / 2) [1 + sum_n s_n w^2 H_n(w)]     (= -int rho A x a_abs dx, a_abs = a0 - w^2 W),
+    whose tail terms s_n |w^2 H_n| are bounded by the first part of (8): truncation_bound() bounds it too.
+    A strain gauge reads the elastic moment (4)-(7); the two differ by ~2 zeta w / omega_1 of the mode-1 term.
 """
 from __future__ import annotations
 
@@ -128,6 +135,15 @@ class Cantilever:
         m = n_terms - 0.51
         return self.static_root_moment * 10.68 * (w**2 / (6 * c**2 * math.pi**7 * m**6)
                                                   + 2 * self.zeta * w / (4 * c * math.pi**5 * m**4))
+
+    def root_reaction_transfer(self, w, n_terms: int = DEFAULT_TERMS) -> np.ndarray:
+        """G_R(w) (N m per m/s^2, complex), Eq. (10): the clamp's d'Alembert reaction moment (inertia only), which
+        also balances the damping forces; same convention and sign as root_moment_transfer."""
+        w = np.atleast_1d(np.asarray(w, float))[:, None]
+        omega = self.natural_frequencies(n_terms)[None, :]
+        shares = self.root_moment_shares(n_terms)[None, :]
+        H = 1.0 / (omega**2 - w**2 + 2j * self.zeta * omega * w)
+        return -self.static_root_moment * (1.0 + np.sum(shares * w**2 * H, axis=1))
 
     def undamped_root_moment_transfer(self, w) -> np.ndarray:
         """G0(w) (N m per m/s^2, real) of the undamped cantilever in closed form, Eq. (9)."""
