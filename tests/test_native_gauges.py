@@ -332,7 +332,7 @@ def test_a_model_file_without_derived_entries_loads(standin_fmu, tmp_path):
 @pytest.fixture(scope="module")
 def bracket(tmp_path_factory):
     """examples/bracket clamped at its bolts, a tip interface, two gauges (a node set's averaged stress, and a point's)
-    (docs/export.md's command with --gauge): (body, native FMU)."""
+    (docs/export.md's command with --gauge): (body, native FMU, co-simulation and model exchange)."""
     pytest.importorskip("meshio")
     from flexfmu.body.build import build_body, clamp_from_text
     from flexfmu.body.interfaces import interface_from_text
@@ -344,7 +344,7 @@ def bracket(tmp_path_factory):
     body = build_body(structure, interfaces=[interface_from_text("tip=arm_top")],
                       clamp=clamp_from_text(structure, "bolt_1,bolt_2"), n_modes=8,
                       gauges=["root=bolt_1", "arm=0.04,0.02,0.003"])
-    return body, export_native(body, tmp_path_factory.mktemp("bracket") / "BracketGauges.fmu")
+    return body, export_native(body, tmp_path_factory.mktemp("bracket") / "BracketGauges.fmu", interface="both")
 
 
 def test_the_exported_bodys_gauges_equal_the_python_simulator(bracket):
@@ -365,3 +365,29 @@ def test_the_exported_bodys_gauges_equal_the_python_simulator(bracket):
     assert errors.max() < RTOL, (names[worst], errors[worst])
     assert np.array_equal(alone, ours[:, [names.index(d) for d in first]])
     assert np.ptp(theirs[:, gauges], axis=0).min() > 0          # every gauge output moves
+
+
+def test_the_derived_outputs_directional_derivatives_equal_central_differences(bracket):
+    """The gauges' von Mises (the chain rule through csrc/derived_stress.c) and their sources, by fmi2GetDirectional
+    Derivative against central differences of the model-exchange instance at a random state and random inputs
+    (tests/test_fmu_directional.py's jacobians, at steps 1e-4 of each known's scale: von Mises is smooth away from
+    zero, so the differences err by (1e-4)^2 of its curvature and by rounding eps |y| / 1e-4); errors relative to
+    each output's largest sensitivity."""
+    from me_helpers import MeInstance
+    from test_fmu_directional import jacobians, random_point
+    body, fmu = bracket
+    inst = MeInstance(fmu, "me")
+    try:
+        x, inputs = random_point(inst, seed=11)
+        exact, central, scales = jacobians(inst, x, inputs, step=1e-4)
+        names = [v.name for v in inst.md.modelVariables if v.causality == "output"]
+    finally:
+        inst.free()
+    rows = [k for k, n in enumerate(names) if n.startswith(("root.", "arm."))]
+    derived = [names.index(d.output) for d in body.derived_outputs()]
+    sensitivity = np.max(np.abs(exact[rows]) * scales, axis=1)
+    assert (sensitivity > 0).all()
+    error = np.abs(exact - central)[rows] * scales / sensitivity[:, None]
+    worst = np.unravel_index(error.argmax(), error.shape)
+    assert error.max() < 1e-6, (names[rows[worst[0]]], error.max())
+    assert np.abs(exact[derived]).max() > 0
