@@ -43,7 +43,7 @@ def plot_range_histogram(assessment: FatigueAssessment, path) -> Path:
                 ax.axvline(value, color="0.3", linestyle=style, linewidth=1.0, label=f"{label} {value:.4g} {u}")
         ax.grid(True, which="both", alpha=0.3)
     if bottom.get_legend_handles_labels()[0]:
-        bottom.legend(loc="upper right", fontsize=8)
+        bottom.legend(loc="best", fontsize=8)
     life = "unlimited" if math.isinf(a.life_seconds) else f"{a.life_seconds / SECONDS_PER_YEAR:.4g} years"
     bottom.text(0.01, 0.95, f"Miner damage {a.damage:.3e}\nequivalent range {a.equivalent_range:.4g} {u} "
                 f"(m {a.curve.m:g}, N_ref {a.n_ref:.2g})\nlife at this rate {life}",
