@@ -16,7 +16,7 @@ from flexfmu.body.clamped import base_patterns, clamped_invariants, rigid_fields
 from flexfmu.body.free import free_invariants
 from flexfmu.body.interfaces import resolve_interfaces
 from flexfmu.body.model import ClampedBody, FlexBody, FreeBody, InterfaceData
-from flexfmu.body.stress import SolidStress, gauge_from_text, resolve_gauges
+from flexfmu.body.stress import SolidStress, gauge_data, gauge_from_text, locate_gauges
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import finite, shown
 from flexfmu.core.io import validate_structure
@@ -111,13 +111,15 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                              "inertia loads (inertia relief), which flexfmu does not evaluate",
                              "a clamped body (--clamp SET), or no --gauge")
     checked = validate_structure(structure)
-    evaluator = SolidStress(checked) if gauges else None      # a model without cells is refused before the work
+    # a model without cells, an unknown set, a point outside the mesh: refused before the reduction's work
+    evaluator = SolidStress(checked) if gauges else None
+    located = locate_gauges(checked, gauges, evaluator) if gauges else ()
     # the whole reduction (modes, sizing, static correction, invariants): one choke point for the BLAS threads
     with limited_for(checked.n_dof):
         body, shapes = _reduced_body(structure, checked, interfaces, clamp, n_modes, f_max, tolerance, damping_ratio,
                                      name, added_mass)
         if gauges:
-            body.gauges = resolve_gauges(checked, gauges, shapes, evaluator)
+            body.gauges = gauge_data(located, shapes, evaluator)
             body.messages = body.messages + tuple(f"gauge {g.name}: {g.where}" for g in body.gauges)
             if body.n_coordinates == body.n_modes:
                 body.messages = body.messages + (

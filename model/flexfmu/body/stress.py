@@ -275,10 +275,10 @@ def gauge_from_text(text: str) -> Gauge:
     return Gauge(name, node_set=rest)
 
 
-def resolve_gauges(structure, gauges, shapes: np.ndarray, evaluator: SolidStress | None = None
-                   ) -> tuple[GaugeData, ...]:
-    """The gauges (Gauge or --gauge text) on ``structure`` for the retained shapes (n_dof, m): ParameterError
-    naming gauge for a duplicate name, an unknown node set, a point in no cell or a model without cells."""
+def locate_gauges(structure, gauges, evaluator: SolidStress | None = None) -> tuple:
+    """Check the gauges (Gauge or --gauge text) on ``structure`` before any reduction: ParameterError naming gauge
+    for a duplicate name, an unknown or empty node set, a point in no cell or a model without cells.  Returns
+    (gauge, where it reads: a node array or locate's result) pairs for gauge_data."""
     gauges = [g if isinstance(g, Gauge) else gauge_from_text(g) for g in gauges]
     if not gauges:
         return ()
@@ -300,19 +300,36 @@ def resolve_gauges(structure, gauges, shapes: np.ndarray, evaluator: SolidStress
             if members.size == 0:
                 raise ParameterError("gauge", f"{g.name}={g.node_set}: the node set selects no node",
                                      "a node set with nodes of the model")
-            strain = evaluator.nodal_strain(shapes, members).mean(axis=0)
-            where = f"node set {g.node_set!r} ({members.size} nodes): averaged nodal stress"
+            out.append((g, members))
+            continue
+        location = evaluator.locate(g.point)
+        if location is None:
+            lo, hi = evaluator.nodes.min(axis=0), evaluator.nodes.max(axis=0)
+            raise ParameterError("gauge", f"{g.name}={','.join(f'{v:g}' for v in g.point)}: the point (m, body "
+                                 "frame) is in no cell of the mesh",
+                                 f"a point inside the body (its nodes span x {lo[0]:.4g} .. {hi[0]:.4g}, y "
+                                 f"{lo[1]:.4g} .. {hi[1]:.4g}, z {lo[2]:.4g} .. {hi[2]:.4g} m)")
+        out.append((g, location))
+    return tuple(out)
+
+
+def gauge_data(located, shapes: np.ndarray, evaluator: SolidStress) -> tuple[GaugeData, ...]:
+    """The GaugeData of located gauges (locate_gauges) for the retained shapes (n_dof, m)."""
+    out = []
+    for g, place in located:
+        if g.node_set is not None:
+            strain = evaluator.nodal_strain(shapes, place).mean(axis=0)
+            where = f"node set {g.node_set!r} ({place.size} nodes): averaged nodal stress"
         else:
-            location = evaluator.locate(g.point)
-            if location is None:
-                lo, hi = evaluator.nodes.min(axis=0), evaluator.nodes.max(axis=0)
-                raise ParameterError("gauge", f"{g.name}={','.join(f'{v:g}' for v in g.point)}: the point (m, body "
-                                     "frame) is in no cell of the mesh",
-                                     "a point inside the body (its nodes span x "
-                                     f"{lo[0]:.4g} .. {hi[0]:.4g}, y {lo[1]:.4g} .. {hi[1]:.4g}, z {lo[2]:.4g} .. "
-                                     f"{hi[2]:.4g} m)")
-            strain = evaluator.strain_at(location, shapes)
-            where = (f"point ({', '.join(f'{v:.6g}' for v in g.point)}) m in {location[0]} cell {location[1]} "
-                     f"(reference coordinates {', '.join(f'{v:.4g}' for v in location[2])})")
+            strain = evaluator.strain_at(place, shapes)
+            where = (f"point ({', '.join(f'{v:.6g}' for v in g.point)}) m in {place[0]} cell {place[1]} "
+                     f"(reference coordinates {', '.join(f'{v:.4g}' for v in place[2])})")
         out.append(GaugeData(g.name, where, strain, evaluator.stress(strain)))
     return tuple(out)
+
+
+def resolve_gauges(structure, gauges, shapes: np.ndarray, evaluator: SolidStress | None = None
+                   ) -> tuple[GaugeData, ...]:
+    """locate_gauges, then gauge_data for the retained shapes (n_dof, m)."""
+    evaluator = evaluator or SolidStress(structure)
+    return gauge_data(locate_gauges(structure, gauges, evaluator), shapes, evaluator)

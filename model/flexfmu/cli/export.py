@@ -14,6 +14,7 @@ def _export(args: argparse.Namespace) -> int:
     """MODEL -> a self-contained FMU of a free or clamped flexible body with named interfaces."""
     from flexfmu.body.build import build_body, clamp_from_text
     from flexfmu.body.interfaces import interface_from_text
+    from flexfmu.body.stress import gauge_from_text
     from flexfmu.fmi.export import check_target, export_fmu
 
     check_target(args.output)                 # before the work: a bad name is known now
@@ -32,10 +33,15 @@ def _export(args: argparse.Namespace) -> int:
             raise ParameterError("interface", f"{text!r} names no body interface; the FMI interface type is "
                                  "--interface-type", f"--interface-type {text}, and --interface NAME=X,Y,Z | NAME=SET")
     interfaces = [interface_from_text(text) for text in args.interface]
+    gauges = [gauge_from_text(text) for text in args.gauge]        # bad text refused before the model is read
     structure = load_user_model(args)
-    body = build_body(structure, interfaces=interfaces, clamp=clamp_from_text(structure, args.clamp), n_modes=args.modes,
-                      f_max=args.f_max,
-                      tolerance=args.tolerance, damping_ratio=args.damping)
+    clamp = clamp_from_text(structure, args.clamp)
+    if gauges and clamp is None:
+        raise ParameterError("gauge", "a free body (no --clamp and no constrained DOFs in the model file)",
+                             "gauges on a clamped body: --clamp SET[,SET...]")
+    body = build_body(structure, interfaces=interfaces, clamp=clamp, n_modes=args.modes, f_max=args.f_max,
+                      tolerance=args.tolerance, damping_ratio=args.damping, gauges=gauges,
+                      with_shapes=args.runtime == "python")
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
     target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version,
@@ -66,6 +72,11 @@ def add_parser(sub) -> None:
                         help="an interface (repeatable): NAME=X,Y,Z (the nodes around the point), NAME=X,Y,Z,R "
                              "(the nodes within R m), NAME=SET (a node set; the point at its centre) or "
                              "NAME=SET@X,Y,Z")
+    export.add_argument("--gauge", action="append", default=[], metavar="NAME=SET|X,Y,Z",
+                        help="a stress and strain gauge of a clamped solid body (repeatable): NAME=SET (the averaged "
+                             "nodal stress of a node set) or NAME=X,Y,Z (the stress at a point, m, body frame); "
+                             "outputs NAME.sigma_xx .. NAME.sigma_xz, NAME.von_mises (Pa), NAME.eps_xx .. NAME.eps_xz, "
+                             "body frame (docs/export.md, 'Gauges')")
     size = export.add_argument_group("model size (one of)")
     size.add_argument("--modes", type=int, default=None, metavar="N", help="keep N elastic modes")
     size.add_argument("--f-max", type=float, default=None, metavar="HZ",

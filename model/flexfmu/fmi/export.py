@@ -45,8 +45,30 @@ def export_fmu(body, target: Path, *, description: str | None = None, runtime: s
     with tempfile.TemporaryDirectory() as tmp:
         model_file = Path(tmp) / BODY_FILE
         body.save(model_file)
+        resources = (model_file,) + shape_resource(body, Path(tmp))
         spec = ExportedSpec(name, description, body)
         runtime_files = python_runtime.compile_runtime(python_runtime.build_folder(), fmi_version)
         return build.build_one(spec, target, runtime_files, experiment=default_experiment(body),
-                               resources=(model_file,), documentation={"index.html": documentation_html(name, body)},
+                               resources=resources, documentation={"index.html": documentation_html(name, body)},
                                fmi_version=fmi_version)
+
+
+#: the shape file's name inside the FMU's resources/ (the nodes, cells, shapes Psi and nodal stress shapes S: what
+#: flexfmu animate draws the deformed body from, with the outputs q_1 .. q_n)
+SHAPE_FILE = "shape.npz"            # flexfmu.body.shape_file.FMU_SHAPE_MEMBER: resources/shape.npz
+
+
+def shape_resource(body, folder: Path) -> tuple[Path, ...]:
+    """(the shape file written in ``folder``,) for a body built with its shape data (build_body(with_shapes=True)
+    on a clamped solid), else ()."""
+    data = getattr(body, "shape_data", None)
+    if not data:
+        return ()
+    try:
+        from flexfmu.body.shape_file import write_shape_file
+    except ImportError:                          # a flexfmu without the shape file's module: no shape file
+        return ()
+    path = folder / SHAPE_FILE
+    write_shape_file(path, data["nodes"], data["cells"], data["Psi"], data["S"], data["names"],
+                     header={"body": data["name"]})
+    return (path,)

@@ -1,0 +1,246 @@
+"""Stress and strain gauges of an exported solid body (flexfmu export --gauge), checked against the full, unreduced
+finite-element model solved here independently.
+
+The case is the example bracket (examples/bracket: 1757 tetra10, 11067 DOFs) clamped at its two bolt holes, loaded at
+the top of its arm (interface tip = node set arm_top), exported as the docs do (--f-max 2000: 9 modes and 13
+static-correction vectors), with two gauges: ``root`` at a point in the arm 3 mm above the base plate on its outer
+face, where the arm's bending stress is largest, and ``hole``, the averaged nodal stress over the bolt_1 hole wall.
+
+The reference is independent of the body's code: the full model's K and M (the importer's assembly, the FE model the
+body reduces) with the bolt nodes fixed, the interface force distributed to the arm_top nodes by the equal-weight rigid
+distribution (re-derived below from its equilibrium conditions), solved by scipy's sparse LU, and the stress of the
+displacement evaluated by scikit-fem's own mesh (skfem.io.meshio on the .msh), element finder, inverse mapping and
+basis gradients (not flexfmu.body.stress).
+"""
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+fmpy = pytest.importorskip("fmpy")
+skfem = pytest.importorskip("skfem")
+
+from flexfmu.body.model import FlexBody  # noqa: E402
+from flexfmu.cli import main  # noqa: E402
+from flexfmu.core.stress import VOIGT, von_mises  # noqa: E402
+from flexfmu.importers import load_structure  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+BRACKET = ROOT / "examples" / "bracket" / "bracket.json"
+MESH = ROOT / "examples" / "bracket" / "bracket.msh"
+POINT = (0.0005, 0.02, 0.008)        # m: in the arm (x 0 .. 5 mm), 3 mm above the base plate's top (z = 5 mm)
+GAUGES = ("--gauge", "root={},{},{}".format(*POINT), "--gauge", "hole=bolt_1")
+FORCE = np.array([100.0, 0.0, 30.0])  # N at the tip, body frame: bends the arm and the base plate
+# the static correction makes the reduced static response that of the full model up to the residual vectors'
+# orthogonalisation (build: "static error now 8e-11"); 1 % is the brief's bound, far above it
+STATIC_RTOL = 0.01
+DYNAMIC_RTOL = 0.02
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """(FMU path, FlexBody from it, the full structure) of the bracket exported with the two gauges."""
+    out = tmp_path_factory.mktemp("gauges") / "Bracket.fmu"
+    code = main(["export", str(BRACKET), "-o", str(out), "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top",
+                 "--f-max", "2000", *GAUGES])
+    assert code == 0
+    with zipfile.ZipFile(out) as z:
+        z.extract("resources/flexfmu_body.npz", out.parent)
+    body = FlexBody.load(out.parent / "resources" / "flexfmu_body.npz")
+    return out, body, load_structure(BRACKET)
+
+
+# ---------------------------------------------------------------------------------------------- the full model
+def clamped_free_dofs(structure):
+    held = np.union1d(structure.node_sets["bolt_1"], structure.node_sets["bolt_2"])
+    fixed = (3 * held[:, None] + np.arange(3)).ravel()
+    return np.setdiff1d(np.arange(structure.n_dof), fixed)
+
+
+def interface_nodal_load(structure, force):
+    """Nodal forces (n_dof,) of a force at the centre P of arm_top, distributed as a rigid patch with equal weights
+    (RBE3): f_i = a + b x r_i (r_i = x_i - P) with sum_i f_i = F and sum_i r_i x f_i = 0, six equations for a, b."""
+    nodes = structure.node_sets["arm_top"]
+    r = structure.nodes[nodes] - structure.nodes[nodes].mean(axis=0)
+    k = nodes.size
+    # sum f_i = k a + b x sum r_i;  sum r_i x f_i = (sum r_i) x a + sum (|r_i|^2 b - r_i (r_i . b))
+    sr = r.sum(axis=0)
+    cross = np.array([[0, -sr[2], sr[1]], [sr[2], 0, -sr[0]], [-sr[1], sr[0], 0]])
+    inertia = np.sum(r * r) * np.eye(3) - r.T @ r
+    A = np.block([[k * np.eye(3), -cross], [cross, inertia]])
+    ab = np.linalg.solve(A, np.concatenate([force, np.zeros(3)]))
+    f_nodes = ab[:3] + np.cross(ab[3:], r)
+    f = np.zeros(structure.n_dof)
+    f[(3 * nodes[:, None] + np.arange(3)).ravel()] = f_nodes.ravel()
+    return f
+
+
+class SkfemStress:
+    """The stress of displacement fields (structure DOF order) by scikit-fem's mesh of the same .msh file."""
+
+    def __init__(self, structure):
+        import meshio
+        from scipy.spatial import cKDTree
+        from skfem.io.meshio import from_meshio
+
+        mesh = from_meshio(meshio.read(MESH)).scaled(1e-3)           # bracket.json: the mesh is in mm
+        self.basis = skfem.Basis(mesh, skfem.ElementVector(skfem.ElementTetP2()))
+        # the cell containing a point by scikit-fem's finder on the straight-sided cells of the same vertices (the
+        # tetra10 mesh's own finder starts Newton's method in cells that do not contain the point and fails there);
+        # the points it is asked about are inside straight cells (the gauge point) or cell centroids
+        self.finder = skfem.MeshTet1(mesh.p, mesh.t).element_finder()
+        component = np.empty(self.basis.N, dtype=np.int64)
+        for dofs in (self.basis.nodal_dofs, self.basis.edge_dofs):
+            component[dofs] = np.arange(3)[:, None]
+        distance, node = cKDTree(structure.nodes).query(self.basis.doflocs.T)
+        assert distance.max() < 1e-9
+        #: structure DOF of each scikit-fem DOF
+        self.dof = 3 * node + component
+        E, nu = dict(structure.provenance.material)["E"], dict(structure.provenance.material)["nu"]
+        self.lam, self.mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+        self.structure = structure
+
+    def _stress(self, U, x, centres):
+        """Stress (n_points, 6, m) at points x (3, n) of the cells containing ``centres`` (3, n)."""
+        b = self.basis
+        cells = self.finder(*centres)
+        X = b.mapping.invF(x[:, :, None], tind=cells)
+        Us = U[self.dof]                                                     # (N_skfem, m)
+        grad = 0.0
+        for k in range(b.Nbfun):
+            g = b.elem.gbasis(b.mapping, X, k, tind=cells)[0].grad[:, :, :, 0]          # (3, 3, n)
+            grad = grad + g[:, :, :, None] * Us[b.element_dofs[k, cells]][None, None]   # (3, 3, n, m)
+        eps = 0.5 * (grad + grad.transpose(1, 0, 2, 3))
+        sigma = 2 * self.mu * eps + self.lam * np.trace(eps)[None, None] * np.eye(3)[:, :, None, None]
+        pairs = ((0, 0), (1, 1), (2, 2), (0, 1), (1, 2), (0, 2))
+        return np.stack([sigma[a, b_] for a, b_ in pairs], axis=1)           # (n, 6, m)
+
+    def at_point(self, U, point):
+        x = np.asarray(point, float).reshape(3, 1)
+        return self._stress(U, x, x)[0]
+
+    def node_set_mean(self, U, nodes):
+        """Mean over the nodes of the mean over the cells sharing each node of the cell's stress at the node."""
+        cells = self.structure.cells["tetra10"]
+        values = []
+        for n in nodes:
+            sharing = cells[np.any(cells == n, axis=1)]
+            centres = self.structure.nodes[sharing[:, :4]].mean(axis=1).T
+            x = np.repeat(self.structure.nodes[n][:, None], sharing.shape[0], axis=1)
+            values.append(self._stress(U, x, centres).mean(axis=0))
+        return np.mean(values, axis=0)
+
+
+@pytest.fixture(scope="module")
+def full(exported):
+    _, _, structure = exported
+    free = clamped_free_dofs(structure)
+    return structure, free, SkfemStress(structure)
+
+
+def gauge_stresses(evaluator, structure, U):
+    return {"root": evaluator.at_point(U, POINT), "hole": evaluator.node_set_mean(U, structure.node_sets["bolt_1"])}
+
+
+def fmu_outputs(fmu, t_end, step, signal, names, **start):
+    return fmpy.simulate_fmu(str(fmu), stop_time=t_end, step_size=step, output_interval=step, input=signal,
+                             output=list(names), start_values=start)
+
+
+def stress_names(gauge):
+    return [f"{gauge}.sigma_{c}" for c in VOIGT]
+
+
+# ---------------------------------------------------------------------------------------------- the tests
+def test_static_interface_load_gives_the_full_models_stress(exported, full):
+    """A held tip force: the FMU's gauges (its exact zero-order-hold step of 1 s with 2 % damping: settled to
+    e^-60) against the full model's static solution, within 1 %; the retained modes alone (no static correction)
+    are measured and must be worse."""
+    fmu, body, _ = exported
+    structure, free, evaluator = full
+    f = interface_nodal_load(structure, FORCE)
+    u = np.zeros(structure.n_dof)
+    u[free] = spla.splu(structure.K[free][:, free].tocsc()).solve(f[free])
+    reference = gauge_stresses(evaluator, structure, u[:, None])
+
+    names = [n for g in ("root", "hole") for n in stress_names(g) + [f"{g}.von_mises"]]
+    signal = np.array([(0.0, *FORCE), (1.0, *FORCE)], dtype=[("time", float), ("tip.F_x", float),
+                                                             ("tip.F_y", float), ("tip.F_z", float)])
+    result = fmu_outputs(fmu, 1.0, 1.0, signal, names)
+    rows = body.interfaces[0].rows
+    n = body.n_modes
+    eta_modes = (rows[:3, :n].T @ FORCE) / body.eigenvalues[:n]         # the modes' static response alone
+    for gauge in body.gauges:
+        ref = reference[gauge.name][:, 0]
+        got = np.array([result[c][-1] for c in stress_names(gauge.name)])
+        vm_ref, vm_got = float(von_mises(ref)), float(result[f"{gauge.name}.von_mises"][-1])
+        vm_modes = float(von_mises(gauge.stress[:, :n] @ eta_modes))
+        tensor_error = np.abs(got - ref).max() / np.abs(ref).max()
+        error, error_modes = abs(vm_got / vm_ref - 1), abs(vm_modes / vm_ref - 1)
+        print(f"{gauge.name}: von Mises full {vm_ref / 1e6:.4f} MPa, FMU {vm_got / 1e6:.4f} MPa "
+              f"(error {error:.2e}, tensor {tensor_error:.2e}); modes alone {vm_modes / 1e6:.4f} MPa (error "
+              f"{error_modes:.2e})")
+        assert error < STATIC_RTOL and tensor_error < STATIC_RTOL
+        assert error_modes > error
+        assert vm_got == pytest.approx(float(von_mises(got)), rel=1e-12)
+
+
+def newmark_full(structure, free, force_of_t, h, substeps, n_steps):
+    """Undamped full model, trapezoidal rule (Newmark average acceleration) with dt = h / substeps and the force
+    held over each communication step h as the FMU's input is: u at t = 0, h, ..., n_steps h (n_dof, n_steps + 1).
+    (M + dt^2/4 K) u1 = M u0 + dt M v0 + dt^2/2 f - dt^2/4 K u0,  v1 = 2 (u1 - u0) / dt - v0."""
+    M = structure.M[free][:, free].tocsr()
+    K = structure.K[free][:, free].tocsr()
+    dt = h / substeps
+    lu = spla.splu((M + (dt * dt / 4) * K).tocsc())
+    u = np.zeros(free.size)
+    v = np.zeros(free.size)
+    out = np.zeros((structure.n_dof, n_steps + 1))
+    for step in range(n_steps):
+        f = force_of_t(step * h)[free]
+        for _ in range(substeps):
+            u1 = lu.solve(M @ (u + dt * v) + (dt * dt / 2) * f - (dt * dt / 4) * (K @ u))
+            v = 2 * (u1 - u) / dt - v
+            u = u1
+        out[free, step + 1] = u
+    return out
+
+
+def test_half_sine_pulse_follows_the_full_transient(exported, full):
+    """A half-sine tip force of 2 ms (about one period of the first mode, 474.6 Hz) and 4 ms of free vibration,
+    undamped in both models (damping_ratio = 0: the body's modal damping is then the full model's, none), the force
+    held over each 20 us step in both.  The full model by the trapezoidal rule at 10 us (period error
+    (omega dt)^2 / 12 = 8e-5 for the first mode, 6e-4 for the third): the gauges' von Mises over time within 2 %
+    of the full model's largest, and the largest within 2 %."""
+    fmu, body, _ = exported
+    structure, free, evaluator = full
+    h, duration, t_end = 2e-5, 2e-3, 6e-3
+    n_steps = int(round(t_end / h))
+    times = np.arange(n_steps + 1) * h
+    amplitude = np.where(times < duration, np.sin(np.pi * times / duration), 0.0)
+    unit = interface_nodal_load(structure, FORCE)
+    U = newmark_full(structure, free, lambda t: unit * amplitude[int(round(t / h))], h, 2, n_steps)
+    reference = gauge_stresses(evaluator, structure, U)
+
+    signal = np.zeros(n_steps + 1, dtype=[("time", float), ("tip.F_x", float), ("tip.F_y", float),
+                                          ("tip.F_z", float)])
+    signal["time"] = times
+    for k, name in enumerate(("tip.F_x", "tip.F_y", "tip.F_z")):
+        signal[name] = FORCE[k] * amplitude
+    names = [f"{g.name}.von_mises" for g in body.gauges]
+    result = fmu_outputs(fmu, t_end, h, signal, names, damping_ratio=0.0)
+    assert np.allclose(result["time"], times)
+    for gauge in body.gauges:
+        vm_ref = von_mises(np.moveaxis(reference[gauge.name], 0, -1))     # (n_steps + 1,)
+        vm_got = result[f"{gauge.name}.von_mises"]
+        peak = vm_ref.max()
+        worst = np.abs(vm_got - vm_ref).max() / peak
+        print(f"{gauge.name}: largest von Mises full {peak / 1e6:.4f} MPa, FMU {vm_got.max() / 1e6:.4f} MPa; "
+              f"worst difference over time {worst:.2e} of the largest")
+        assert worst < DYNAMIC_RTOL
+        assert vm_got.max() == pytest.approx(peak, rel=DYNAMIC_RTOL)
