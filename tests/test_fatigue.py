@@ -67,6 +67,15 @@ def test_the_numpy_reversals_keep_the_rainflow_packages_cycles(rng):
         assert np.allclose(np.abs(x[ours.start] - x[ours.end]), ours.ranges, rtol=0, atol=0)
 
 
+def test_a_history_with_a_nan_is_refused_naming_the_sample():
+    with pytest.raises(ParameterError, match=r"^history: sample 2 is nan"):
+        rainflow_cycles([0.0, 1.0, math.nan, 1.0])
+    with pytest.raises(ParameterError, match=r"stress: sample 1 \(t = 1.0 s\) is inf"):
+        StressHistory([0.0, 1.0, 2.0], [0.0, math.inf, 1.0])
+    with pytest.raises(ParameterError, match="too short"):
+        StressHistory([0.0], [1.0])
+
+
 def test_a_constant_history_has_no_damage():
     t = np.linspace(0.0, 10.0, 11)
     a = assess_history(StressHistory(t, np.full(11, 5e7)), named_curve("DNV-D"))
@@ -266,5 +275,13 @@ def test_cli_refuses_bad_input_naming_the_option(tmp_path, capsys):
     err = _error(capsys, [str(nan), "--gauge", "a.gauge_x", "--curve", "DNV-D"])
     assert "gauge a.gauge_x" in err and "nan" in err and "finite" in err
     assert "no such file" in _error(capsys, [str(tmp_path / "none.csv"), "--gauge", "x", "--curve", "DNV-D"])
+    ragged = tmp_path / "ragged.csv"
+    ragged.write_text("time,a.gauge_x,a.other\n0,1,2\n1,2\n")
+    err = _error(capsys, [str(ragged), "--gauge", "a.other", "--curve", "DNV-D"])
+    assert str(ragged) in err and "one number per column" in err
+    text = tmp_path / "text.csv"
+    text.write_text("time,a.gauge_x\n0,1\n1,oops\n")
+    err = _error(capsys, [str(text), "--gauge", "a.gauge_x", "--curve", "DNV-D"])
+    assert str(text) in err and "oops" in err
     err = _error(capsys, [str(good), "--gauge", "a.gauge_x", "--curve", "DNV-D", "--plot", str(tmp_path)])
     assert "plot" in err and "is a folder" in err

@@ -62,7 +62,7 @@ def rainflow_cycles(history) -> Cycles:
     require(x.size >= 2, "history", f"{x.size} sample(s)", "at least 2 samples")
     if not np.all(np.isfinite(x)):
         bad = int(np.flatnonzero(~np.isfinite(x))[0])
-        raise ParameterError("history", f"sample {bad} is {x[bad]!r}", "finite stresses")
+        raise ParameterError("history", f"sample {bad} is {float(x[bad])!r}", "finite stresses")
     try:
         import rainflow
     except ImportError:

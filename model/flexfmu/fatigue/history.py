@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -44,7 +45,7 @@ class StressHistory:
         for values, what in ((t, "time"), (s, self.name)):
             if not np.all(np.isfinite(values)):
                 k = int(np.flatnonzero(~np.isfinite(values))[0])
-                raise ParameterError(what, f"sample {k} (t = {t[k]!r} s) is {values[k]!r}",
+                raise ParameterError(what, f"sample {k} (t = {float(t[k])!r} s) is {float(values[k])!r}",
                                      "finite values (a run that diverged or a gap in the record?)")
         steps = np.diff(t)
         require(bool(np.all(steps > 0.0)), "time", f"not increasing at sample {int(np.argmin(steps > 0.0)) + 1}",
@@ -72,26 +73,35 @@ class StressHistory:
         return StressHistory(self.time[keep], self.stress[keep], self.name, self.unit)
 
 
-def read_columns(path) -> tuple[list[str], np.ndarray]:
-    """The header and the numbers (rows x columns) of a result CSV; a ParameterError naming the file for a file
-    that is missing, empty, ragged or holds text where a number belongs (NaN and inf are read, and refused later
-    by the history that holds them, naming the column)."""
+def read_header(path) -> list[str]:
+    """The column names of a result CSV (its first row); a ParameterError naming the file if it is missing or
+    empty."""
     path = Path(path)
     require(path.is_file(), str(path), "no such file", "a result CSV (flexfmu cosim --out)")
     with path.open(newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
-    require(len(rows) >= 1 and rows[0], str(path), "the file is empty", "a header row, then one row per time")
-    header = [h.strip() for h in rows[0]]
-    body = [r for r in rows[1:] if r]
-    values = np.empty((len(body), len(header)))
-    for k, row in enumerate(body, start=2):
-        require(len(row) == len(header), str(path), f"line {k} has {len(row)} values, the header {len(header)}",
-                "one value per column")
-        try:
-            values[k - 2] = [float(v) for v in row]
-        except ValueError:
-            raise ParameterError(str(path), f"line {k} holds a value that is not a number", "numbers") from None
-    return header, values
+        header = next(csv.reader(f), [])
+    require(bool(header), str(path), "the file is empty", "a header row, then one row per time")
+    return [h.strip() for h in header]
+
+
+def read_columns(path, columns=None) -> tuple[list[str], np.ndarray]:
+    """The header and the numbers (rows x the ``columns`` asked for, default all) of a result CSV; a ParameterError
+    naming the file for a file that is missing, empty, ragged or holds text where a number belongs (NaN and inf are
+    read, and refused later by the history that holds them, naming the column).  numpy's C reader, which reads only
+    the columns asked for: a long record of many outputs is read in seconds."""
+    header = read_header(path)
+    names = header if columns is None else list(columns)
+    index = [header.index(c) for c in names]
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")          # "empty input file": a header without rows
+            values = np.loadtxt(path, delimiter=",", skiprows=1, usecols=index, ndmin=2, encoding="utf-8")
+    except UserWarning:
+        values = np.empty((0, len(names)))
+    except ValueError as exc:
+        # numpy names the line and the text it could not read, or the row with too few columns
+        raise ParameterError(str(path), " ".join(str(exc).split()), "one number per column on every row") from None
+    return names, values.reshape(-1, len(names))
 
 
 def history_from_csv(path, column: str, *, time_column: str | None = None, unit: str = "Pa",
@@ -99,7 +109,7 @@ def history_from_csv(path, column: str, *, time_column: str | None = None, unit:
     """The history of ``column`` in the result CSV ``path`` (stress in ``unit``; from ``t_start`` on).  The time is
     ``time_column``, else the first of TIME_COLUMNS present, else the first column.  An unknown column is a
     ParameterError naming ``parameter`` and listing the file's columns."""
-    header, values = read_columns(path)
+    header = read_header(path)
     if time_column is None:
         time_column = next((c for c in TIME_COLUMNS if c in header), header[0])
     columns = [c for c in header if c != time_column]
@@ -107,8 +117,8 @@ def history_from_csv(path, column: str, *, time_column: str | None = None, unit:
             ", ".join(header))
     require(column in header and column != time_column, parameter, f"{column!r} is not a column of {path}",
             "one of its columns: " + ", ".join(columns))
-    t = values[:, header.index(time_column)]
-    s = values[:, header.index(column)]
+    _, values = read_columns(path, (time_column, column))
+    t, s = values[:, 0], values[:, 1]
     require(t.size >= MIN_SAMPLES, parameter, f"{path} holds {t.size} row(s): the history is too short",
             f"at least {MIN_SAMPLES} rows")
     if t_start is not None:    # before the checks: a transient left out may hold what they refuse
@@ -121,6 +131,6 @@ def history_from_csv(path, column: str, *, time_column: str | None = None, unit:
     for values_, what in ((s, f"{parameter} {column}"), (t, f"time-column {time_column}")):
         if not np.all(np.isfinite(values_)):
             k = int(np.flatnonzero(~np.isfinite(values_))[0])
-            raise ParameterError(what, f"the value at t = {t[k]!r} s is {values_[k]!r}",
+            raise ParameterError(what, f"the value at t = {float(t[k])!r} s is {float(values_[k])!r}",
                                  "finite values (a run that diverged, or a gap in the record?)")
     return StressHistory(t, s, column, unit)
