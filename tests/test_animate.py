@@ -316,6 +316,12 @@ def test_animate_command_bad_inputs(shape_path, tmp_path, capsys):
     assert "unknown animation format" in error(good, "--fmu", fmu, "--out", tmp_path / "x.txt")
     no_time = _csv(tmp_path / "no_time.csv", ["q_1", "q_2", "q_3"], [[1, 2, 3]])
     assert "no time column" in error(no_time, "--fmu", fmu, "--out", gif)
+    (tmp_path / "head.csv").write_text("time,q_1,q_2,q_3\n")
+    assert "no rows" in error(tmp_path / "head.csv", "--fmu", fmu, "--out", gif)
+    (tmp_path / "words.csv").write_text("time,q_1,q_2,q_3\n0,1,2,3\n0.1,1,oops,3\n")
+    assert "not numbers" in error(tmp_path / "words.csv", "--fmu", fmu, "--out", gif)
+    (tmp_path / "nan.csv").write_text("time,q_1,q_2,q_3\n0,1,2,3\n0.1,1,nan,3\n")
+    assert "NaN or infinite shape coordinates at t = 0.1" in error(tmp_path / "nan.csv", "--fmu", fmu, "--out", gif)
 
 
 def _hex_bar(path):

@@ -138,9 +138,13 @@ def animate(series, out, *, scale: float | None = None, fraction: float = DEFAUL
         ax.set_ylim(lo[1], hi[1])
         ax.set_zlim(lo[2], hi[2])
         ax.set_box_aspect(np.maximum(hi - lo, 1e-3 * size), zoom=0.95)
-        for axis, name in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), "xyz"):
-            axis(f"{name} (m)", fontsize=8)
-        ax.tick_params(labelsize=6)
+        if len(panels) == 1:
+            for axis, name in zip((ax.set_xlabel, ax.set_ylabel, ax.set_zlabel), "xyz"):
+                axis(f"{name} (m)", fontsize=8)
+            ax.tick_params(labelsize=6)
+            ax.locator_params(nbins=4)
+        else:                    # side by side: the shapes matter, not the coordinates (and text is most of the time)
+            ax.set_axis_off()
         if shape.triangles.shape[0]:
             artist = Poly3DCollection([], linewidths=0.15, edgecolors=(0.0, 0.0, 0.0, 0.35))
         elif shape.lines.shape[0]:
