@@ -332,11 +332,13 @@ def test_a_model_file_without_derived_entries_loads(standin_fmu, tmp_path):
 @pytest.fixture(scope="module")
 def bracket(tmp_path_factory):
     """examples/bracket clamped at its bolts, a tip interface, two gauges (a node set's averaged stress, and a point's)
-    (docs/export.md's command with --gauge): (body, native FMU, co-simulation and model exchange)."""
+    (docs/export.md's command with --gauge, flexfmu.fmi.native.export_native's steps): (body, native FMU of FMI 2.0,
+    of FMI 3.0), co-simulation and model exchange."""
     pytest.importorskip("meshio")
     from flexfmu.body.build import build_body, clamp_from_text
     from flexfmu.body.interfaces import interface_from_text
-    from flexfmu.fmi.native import export_native
+    from flexfmu.fmi.native import body_source
+    from flexfmu.fmi.native_build import build_native_fmu
     from flexfmu.importers import load_structure
     from pathlib import Path
     root = Path(__file__).resolve().parents[1]
@@ -344,14 +346,16 @@ def bracket(tmp_path_factory):
     body = build_body(structure, interfaces=[interface_from_text("tip=arm_top")],
                       clamp=clamp_from_text(structure, "bolt_1,bolt_2"), n_modes=8,
                       gauges=["root=bolt_1", "arm=0.04,0.02,0.003"])
-    return body, export_native(body, tmp_path_factory.mktemp("bracket") / "BracketGauges.fmu", interface="both")
+    source, out = body_source(body, "BracketGauges"), tmp_path_factory.mktemp("bracket")
+    return body, *(build_native_fmu(source, out / f"fmi{v}" / "BracketGauges.fmu", fmi_version=v, interface="both")
+                   for v in (2, 3))
 
 
 def test_the_exported_bodys_gauges_equal_the_python_simulator(bracket):
     """Every output (the gauges' stress and strain components and von Mises among them) over 0.3 s of moving
     interface loads and base motion: the native FMU equals the body's Python simulator to RTOL."""
     from flexfmu.body.simulator import FlexBodySimulator
-    body, fmu = bracket
+    body, fmu, _ = bracket
     sim = FlexBodySimulator(body, body.config_class())
     names = tuple(sim.output_names)
     gauges = [k for k, n in enumerate(names) if n.startswith(("root.", "arm."))]
@@ -375,7 +379,7 @@ def test_the_derived_outputs_directional_derivatives_equal_central_differences(b
     each output's largest sensitivity."""
     from me_helpers import MeInstance
     from test_fmu_directional import jacobians, random_point
-    body, fmu = bracket
+    body, fmu, _ = bracket
     inst = MeInstance(fmu, "me")
     try:
         x, inputs = random_point(inst, seed=11)
@@ -391,3 +395,33 @@ def test_the_derived_outputs_directional_derivatives_equal_central_differences(b
     worst = np.unravel_index(error.argmax(), error.shape)
     assert error.max() < 1e-6, (names[rows[worst[0]]], error.max())
     assert np.abs(exact[derived]).max() > 0
+
+
+def test_fmi3_gives_the_fmi2_gauges_bit_for_bit(bracket):
+    """The same binary and model file behind both: fmpy's simulate_fmu of each over 50 ms of moving inputs gives the
+    same gauge outputs, bit for bit; and the FMUs carry every platform's binary whose compiler is installed (the
+    cross-compiled targets compile derived_stress.c too)."""
+    from fmpy import read_model_description, simulate_fmu
+
+    from flexfmu.native.compiler import PLATFORMS, missing_platforms
+    body, fmu2, fmu3 = bracket
+    records = []
+    for fmu in (fmu2, fmu3):
+        md = read_model_description(str(fmu))
+        inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+        t = np.arange(0.0, 0.05 + H / 2, H)
+        signals = np.zeros(len(t), dtype=[("time", float)] + [(n, float) for n in inputs])
+        signals["time"] = t
+        for k, time in enumerate(t):
+            for n, v in zip(inputs, _input_vector(inputs, time)):
+                signals[n][k] = v
+        records.append(simulate_fmu(str(fmu), start_time=0.0, stop_time=0.05, step_size=H, output_interval=H,
+                                    input=signals))
+    gauges = [n for n in records[0].dtype.names if n.startswith(("root.", "arm."))]
+    assert len(gauges) == 26
+    for name in gauges:
+        assert np.array_equal(records[0][name], records[1][name]), name
+        assert np.ptp(records[0][name]) > 0, name
+    with zipfile.ZipFile(fmu2) as archive:
+        folders = {n.split("/")[1] for n in archive.namelist() if n.startswith("binaries/")}
+    assert folders == {p.name for p in PLATFORMS} - set(missing_platforms())
