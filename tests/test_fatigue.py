@@ -209,7 +209,13 @@ def test_bins_from_result_csvs(tmp_path):
     assert result.damage_rate == pytest.approx(expected, rel=1e-12)
     out = result.write_csv(tmp_path / "bins.csv")
     rows = list(csv.reader(out.open()))
-    assert rows[-1][0] == "total" and float(rows[-1][6]) == pytest.approx(result.damage_rate, rel=1e-15)
+    assert rows[0][7] == "weighted_rate"
+    assert rows[-1][0] == "total" and float(rows[-1][7]) == pytest.approx(result.damage_rate, rel=1e-15)
+    # both records as the seeds of one bin: their damage over their spans, 60 s each
+    seeds = sea_state_damage([DamageBin.from_csv("two seeds", paths, "beam.gauge_root_sigma_max", probability=1.0)],
+                             curve)
+    assert seeds.damage_rate == pytest.approx(expected, rel=1e-12)
+    assert seeds.rows()[0]["records"] == 2 and seeds.rows()[0]["record_s"] == pytest.approx(120.0, rel=1e-15)
 
 
 # ---------------------------------------------------------------------------------------------- the command

@@ -19,11 +19,11 @@ from .assessment import DEFAULT_N_REF, FatigueAssessment, assess_history
 from .counting import Cycles, rainflow_cycles
 from .damage import cycle_damage, damage_equivalent_range, equivalent_range, miner_damage
 from .history import StressHistory, history_from_csv
-from .sea_states import DamageBin, SeaStateDamage, sea_state_damage
+from .sea_states import BinDamage, DamageBin, SeaStateDamage, sea_state_damage
 from .sn_curve import SNCurve, curve_from_text
 from .standard_curves import curve_names, named_curve
 
-__all__ = ["DEFAULT_N_REF", "Cycles", "DamageBin", "FatigueAssessment", "SNCurve", "SeaStateDamage",
+__all__ = ["DEFAULT_N_REF", "BinDamage", "Cycles", "DamageBin", "FatigueAssessment", "SNCurve", "SeaStateDamage",
            "StressHistory", "assess_history", "curve_from_text", "curve_names", "cycle_damage",
            "damage_equivalent_range", "equivalent_range", "history_from_csv", "miner_damage", "named_curve",
            "rainflow_cycles", "sea_state_damage"]
