@@ -144,6 +144,19 @@ def test_double_l_section_forces_are_the_statics_of_the_part_beyond(section, rng
     np.testing.assert_allclose(sol.reactions(), -np.concatenate([F, np.cross(pts[-1], F) + M]), atol=1e-9)
 
 
+def test_cuts_on_a_segment_parallel_to_y_keep_its_axes():
+    """A node interpolated on the double-L's last segment (along +Y) lies off the exact vertical by rounding; the
+    section axes are still the rule's y = -X, z = Z (the segment's direction orients them)."""
+    model, _ = double_l(ROUND, cuts=[0.3 + 0.15 * k / 7 for k in range(1, 7)])
+    tilted = 0
+    for s in model.node_s[model.node_s >= 0.3]:
+        np.testing.assert_array_equal(model.section_axes_at(s), [[0, -1, 0], [1, 0, 0], [0, 0, 1]])
+        e = model.element_at(s)[0]
+        i, j, _ = model.frame.elements[e]
+        tilted += not np.array_equal(section_axes(model.frame.nodes[i], model.frame.nodes[j])[:, 1], [-1, 0, 0])
+    assert tilted > 0          # the nodes' own direction would have turned some: the test can fail
+
+
 def test_results_do_not_depend_on_extra_nodes():
     one, _ = double_l(ROUND, cuts=[0.45])
     many, _ = double_l(ROUND, cuts=np.linspace(0, 0.45, 31))

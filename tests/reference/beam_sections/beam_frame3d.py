@@ -21,7 +21,8 @@ Equations
     k q = f: f are the forces and moments the nodes apply to the element, local axes.
 (2) Section axes (columns of R, body frame): x = (r_j - r_i) / L; z = x cross Y / |x cross Y| (horizontal, normal to
     the element and to body Y), y = z cross x (so y . Y >= 0).  An element exactly parallel to Y (x = c Y,
-    c = +-1): y = -c X, z = Z.
+    c = +-1): y = -c X, z = Z.  In a polyline x is its segment's direction (from the segment's vertices): a node
+    interpolated on a segment parallel to Y, off it by rounding, must not turn the axes by 90 degrees.
 (3) Global stiffness of the element K_e = T^T k T, T = blockdiag(R^T, R^T, R^T, R^T); assembled over the nodes;
     clamped nodes' six DOFs removed; K_ff q_f = f_f solved (dense, numpy.linalg.solve).
 (4) Element end forces, local: f = k T q_e (no loads between the nodes: loads only at nodes, so (1) is exact for
@@ -92,9 +93,13 @@ class Frame:
     elements: list = field(default_factory=list)
     clamps: set = field(default_factory=set)
     loads: dict = field(default_factory=dict)
+    axis_points: list = field(default_factory=list)
 
-    def add_element(self, i: int, j: int, section: FrameSection) -> int:
+    def add_element(self, i: int, j: int, section: FrameSection, axis_points=None) -> int:
+        """axis_points: (start, end) whose direction orients the section axes, Eq. (2) (default the nodes'):
+        a polyline's segment, so that a node interpolated on it, off by rounding, tilts no axis."""
         self.elements.append((int(i), int(j), section))
+        self.axis_points.append(None if axis_points is None else tuple(np.asarray(p, float) for p in axis_points))
         return len(self.elements) - 1
 
     def clamp(self, node: int) -> None:
@@ -109,7 +114,7 @@ class Frame:
         """(L, R, T) of element e: length (m), section axes (columns, body frame), 12 x 12 transformation."""
         i, j, _ = self.elements[e]
         L = float(np.linalg.norm(self.nodes[j] - self.nodes[i]))
-        R = section_axes(self.nodes[i], self.nodes[j])
+        R = section_axes(*(self.axis_points[e] or (self.nodes[i], self.nodes[j])))
         return L, R, np.kron(np.eye(4), R.T)
 
     def solve(self) -> "FrameSolution":
@@ -188,10 +193,14 @@ class PolylineFrame:
         self.node_s = s_nodes
         self.frame = Frame(np.array([self.point_at(s) for s in s_nodes]))
         for k in range(len(s_nodes) - 1):
-            self.frame.add_element(k, k + 1, section)
+            seg = self.segment_of(0.5 * (s_nodes[k] + s_nodes[k + 1]))
+            self.frame.add_element(k, k + 1, section, axis_points=(self.points[seg], self.points[seg + 1]))
+
+    def segment_of(self, s: float) -> int:
+        return int(np.clip(np.searchsorted(self.vertex_s, s, side="right") - 1, 0, len(self.vertex_s) - 2))
 
     def point_at(self, s: float) -> np.ndarray:
-        seg = int(np.clip(np.searchsorted(self.vertex_s, s, side="right") - 1, 0, len(self.vertex_s) - 2))
+        seg = self.segment_of(s)
         t = (s - self.vertex_s[seg]) / (self.vertex_s[seg + 1] - self.vertex_s[seg])
         return (1 - t) * self.points[seg] + t * self.points[seg + 1]
 
