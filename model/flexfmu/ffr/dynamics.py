@@ -57,6 +57,8 @@ from flexfmu.core.blas import single_thread
 from flexfmu.core.cache import BoundedCache
 from flexfmu.ffr.assembly import BeamModel
 from flexfmu.errors import require
+from flexfmu.ffr.ffrbeam_config import GAUGE_SLOTS
+from flexfmu.ffr.gauges import GaugeSections
 from flexfmu.ffr.geometric_stiffness import inertial_geometric_stiffness
 from flexfmu.ffr.kinematics import point_shape
 from flexfmu.linalg.modal import Modes
@@ -172,10 +174,12 @@ class FFRBeamDynamics:
     integrator: "exact" (zero-order-hold matrix exponential, default) or "rk4" (one classical RK4 step
     of the same held-input system, see the module docstring).
     geometric_stiffening: add the geometric stiffness of the prestress of the held inertial load.
+    gauge_s: the strain gauges' arc lengths (m; None = no gauge), mesh nodes (flexfmu.ffr.gauges).
     """
 
     def __init__(self, model: BeamModel, modes: Modes, damping_ratio: float, load_s: float, sensor_s: float,
-                 tip_s: float | None = None, *, integrator: str = "exact", geometric_stiffening: bool = False):
+                 tip_s: float | None = None, *, integrator: str = "exact", geometric_stiffening: bool = False,
+                 gauge_s: tuple = (None,) * GAUGE_SLOTS):
         require(np.isfinite(damping_ratio) and 0.0 <= damping_ratio < 1.0, "damping_ratio",
                 f"got {damping_ratio!r}", "0 <= damping_ratio < 1")
         require(integrator in INTEGRATORS, "integrator", f"got {integrator!r}", " | ".join(INTEGRATORS))
@@ -210,6 +214,7 @@ class FFRBeamDynamics:
         self.load_disp_map = self.load.full_translation(n) @ Phi         # (3, m)
         # Reaction integrals in modal coordinates: int rho S q = S_bar_hat eta; the cross integrals
         # int rho u0 x (S q) etc. go through P_hat (3, 3, m).
+        self.gauges = GaugeSections(model, Phi, tuple(gauge_s))     # the section forces' rows of fast_maps
         if self.geometric_stiffening:
             # G_X_hat (3, 3, m, m) per unit X_ab, G_a0_hat (3, m, m) per unit a0_a (kg, kg/m)
             self.G_X_hat, self.G_a0_hat = inertial_geometric_stiffness(model).modal(Phi)
@@ -380,7 +385,8 @@ class FFRBeamDynamics:
 
         with y = [sensor u, sensor v, sensor a, tip u, reaction F, reaction M] (18 values): the same
         quantities as :meth:`step`, :meth:`sensor_motion`, :meth:`tip_displacement` and
-        :meth:`reactions` (tests/test_performance_equivalence.py), at O(m^2) per step.  Cached per
+        :meth:`reactions` (tests/test_performance_equivalence.py), at O(m^2) per step; then the gauges' section
+        forces (6 per gauge slot, zero rows for none: flexfmu.ffr.gauges, without the static correction).  Cached per
         (h, omega, alpha) (and a0 with geometric stiffening); ``h = None`` gives the output maps only."""
         key = (h, self._base_key(base))
         hit = self._fast_cache.get(key)
@@ -413,7 +419,9 @@ class FFRBeamDynamics:
                   np.hstack([_skew(self.load.undeformed_body), I3, -_skew(ints.first_moment)]) - L_a @ Fm]
         y0 = np.concatenate([np.zeros(6), X @ u0 - Sm @ p, np.zeros(3), -(X @ ints.first_moment - Sb @ p),
                              -(ints.J0 @ al + _cross(w, ints.J0 @ w) - L_a @ p)])
-        C = np.ascontiguousarray(np.hstack([np.vstack(rows_x), np.vstack(rows_u)]))    # (18, 2m + 9)
+        gauge_x, gauge_u, gauge_y0 = self.gauges.output_rows(Ax, Fm, p, W, X)
+        C = np.ascontiguousarray(np.hstack([np.vstack(rows_x + [gauge_x]), np.vstack(rows_u + [gauge_u])]))
+        y0 = np.concatenate([y0, gauge_y0])                                             # C: (36, 2m + 9)
         if h is None:
             Ad = Bu = b0 = None
         else:

@@ -9,6 +9,7 @@ import numpy as np
 
 from flexfmu.core.blas import limited_for
 from flexfmu.core.checks import MAX_BEAM_DOFS, dof_limit, shown
+from flexfmu.core.stress import SectionFibres
 from flexfmu.errors import require
 from flexfmu.ffr.assembly import boundary_clamps, build_beam_model
 from flexfmu.ffr.dynamics import FFRBeamDynamics
@@ -33,6 +34,7 @@ class _Built:
     frequencies_hz: np.ndarray
     choice: ModelChoice
     correction: StaticCorrection | None
+    derived_outputs: tuple = ()       # the gauges' stresses (flexfmu.core.stress.DerivedStress)
 
 
 def _lowest_modes(model, n_wanted: int, f_max: float | None = None):
@@ -99,11 +101,16 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     scene = load_scene(cfg.scene, check_size=lambda n_segments: _check_scene_size(limit, cfg, n_segments))
     load_s = scene.total_length if cfg.load_s == -1.0 else check_arc_length(scene, cfg.load_s, "load_s")
     sensor_s = check_arc_length(scene, cfg.sensor_s, "sensor_s")
+    gauge_s = tuple(None if s == -1.0 else _gauge_arc_length(scene, s, f"gauge_{k}_s")
+                    for k, s in enumerate(cfg.gauge_arc_lengths, start=1))
+    if any(s is not None for s in gauge_s):             # before anything is built: a generic section is refused
+        SectionFibres.of(scene.section.shape, scene.section.A, scene.section.Iy, scene.section.Iz, scene.section.J,
+                         name=f"gauge_{next(k for k, s in enumerate(gauge_s, start=1) if s is not None)}_s")
     require(len(boundary_clamps(scene, cfg.boundary)) > 0, "boundary",
             f"{cfg.boundary!r} clamps nothing in scene {scene.name}", "a boundary with at least one clamp")
     mesh_choice, truncation = None, None
     n_el = int(cfg.elements_per_segment)
-    extra = (load_s, sensor_s)
+    extra = (load_s, sensor_s) + tuple(s for s in gauge_s if s is not None)      # gauges sit on nodes
     _check_scene_size(limit, cfg, len(scene.points) - 1, scene, extra + boundary_clamps(scene, cfg.boundary))
     if n_el == 0:
         mesh_choice = choose_elements_per_segment(scene, cfg.boundary, cfg.f_max, cfg.tolerance,
@@ -146,10 +153,18 @@ def _build(cfg: FFRBeamConfig) -> _Built:
     corrected = cfg.static_correction == 1 or (cfg.static_correction == -1 and cfg.n_modes == -1)
     with limited_for(model.n_dof):     # the dense invariants of a small model: one BLAS thread (flexfmu.core.blas)
         dynamics = FFRBeamDynamics(model, retained, cfg.damping_ratio, load_s, sensor_s, integrator=cfg.integrator,
-                                   geometric_stiffening=bool(cfg.geometric_stiffening))
+                                   geometric_stiffening=bool(cfg.geometric_stiffening), gauge_s=gauge_s)
         correction = ffr_static_correction(dynamics) if corrected and n_modes < model.n_free else None
     choice = ModelChoice(f_max=float(cfg.f_max), tolerance=float(cfg.tolerance), elements_per_segment=n_el,
                          mesh=mesh_choice, n_modes=n_modes, modes_chosen=cfg.n_modes == -1,
                          frequencies_hz=modes.frequencies_hz[:n_modes + 1].copy(), n_free=model.n_free,
                          static_correction=corrected, truncation=truncation)
-    return _Built(dynamics, reported, choice, correction)
+    return _Built(dynamics, reported, choice, correction, dynamics.gauges.derived_outputs(scene.section))
+
+
+def _gauge_arc_length(scene, s: float, name: str) -> float:
+    """A gauge's arc length checked against the rod (the ends within rounding); the error names -1 as well."""
+    total = scene.total_length
+    require(-1e-9 * total <= s <= total * (1 + 1e-9), name, f"arc length {s!r} m is outside the rod",
+            f"-1 (no gauge) or 0 <= {name} <= {total:.6g} m")
+    return check_arc_length(scene, s, name)

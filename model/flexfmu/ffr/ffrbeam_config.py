@@ -17,9 +17,26 @@ BASE_INPUTS = (tuple(f"base_a_{a}" for a in AXES) + tuple(f"base_w_{a}" for a in
                + tuple(f"base_dw_{a}" for a in AXES))
 INPUT_NAMES = FORCE_INPUTS + BASE_INPUTS
 N_REPORTED_FREQUENCIES = 6
+#: strain gauges (flexfmu.ffr.gauges): parameters gauge_K_s, K = 1 .. GAUGE_SLOTS; per gauge the six section forces
+#: (force then moment, section frame x y z) and the section's largest axial and von Mises stresses
+GAUGE_SLOTS = 3
+SECTION_FORCES = ("N", "Vy", "Vz", "T", "My", "Mz")
+GAUGE_QUANTITIES = SECTION_FORCES + ("sigma_max", "von_mises")
+
+
+def gauge_output(k: int, quantity: str) -> str:
+    """The output name of gauge k's ``quantity`` (one of GAUGE_QUANTITIES)."""
+    return f"gauge_{k}_{quantity}"
+
+
+GAUGE_OUTPUTS = tuple(gauge_output(k, q) for k in range(1, GAUGE_SLOTS + 1) for q in GAUGE_QUANTITIES)
 OUTPUT_NAMES = (tuple(f"sensor_{k}_{a}" for k in "uva" for a in AXES) + tuple(f"tip_u_{a}" for a in AXES)
                 + tuple(f"reaction_F_{a}" for a in AXES) + tuple(f"reaction_M_{a}" for a in AXES)
-                + tuple(f"f_{i}" for i in range(1, N_REPORTED_FREQUENCIES + 1)) + ("elastic_energy",))
+                + tuple(f"f_{i}" for i in range(1, N_REPORTED_FREQUENCIES + 1)) + ("elastic_energy",)
+                + GAUGE_OUTPUTS)
+ENERGY_OUTPUT = OUTPUT_NAMES.index("elastic_energy")
+#: where gauge k's six section forces are in OUTPUT_NAMES (the linear rows; sigma_max and von_mises follow them)
+GAUGE_ROWS = tuple(ENERGY_OUTPUT + 1 + len(GAUGE_QUANTITIES) * (k - 1) for k in range(1, GAUGE_SLOTS + 1))
 INTEGRATORS = ("exact", "rk4")
 #: RK4 sub-steps stay at or below this fraction of the stability limit (margin for the damping terms).
 RK4_STEP_FRACTION = 0.9
@@ -45,6 +62,14 @@ class FFRBeamConfig:
     integrator: str = "exact"
     geometric_stiffening: bool = False
     max_internal_steps: int = DEFAULT_MAX_INTERNAL_STEPS
+    gauge_1_s: float = -1.0
+    gauge_2_s: float = -1.0
+    gauge_3_s: float = -1.0
+
+    @property
+    def gauge_arc_lengths(self) -> tuple:
+        """gauge_K_s of K = 1 .. GAUGE_SLOTS (m, -1 = no gauge), in slot order."""
+        return tuple(getattr(self, f"gauge_{k}_s") for k in range(1, GAUGE_SLOTS + 1))
 
 
 _is_int = is_int
@@ -64,6 +89,9 @@ def _check_config(cfg: FFRBeamConfig) -> None:
     for name in ("load_s", "sensor_s"):           # the range (the rod's length) is checked with the scene
         require(finite(getattr(cfg, name)), name, f"got {getattr(cfg, name)!r}",
                 "an arc length in m (load_s: or -1 = the last point)")
+    for k, s in enumerate(cfg.gauge_arc_lengths, start=1):   # the range (the rod's length) is checked with the scene
+        require(finite(s) and (s == -1.0 or s >= 0.0), f"gauge_{k}_s", f"got {s!r}",
+                "-1 (no gauge) or an arc length 0 <= s <= the rod's length in m")
     check_band(cfg.f_max, cfg.tolerance)
     require(isinstance(cfg.static_correction, (int, np.integer)) and cfg.static_correction in (-1, 0, 1),
             "static_correction", f"got {cfg.static_correction!r}", "-1 (on when n_modes = -1), 0 (off), 1 (on)")
@@ -76,6 +104,27 @@ def _check_config(cfg: FFRBeamConfig) -> None:
 
 def _axis_info(prefix: str, unit: str, text: str) -> dict:
     return {f"{prefix}_{a}": (unit, f"{text}, body {a}") for a in AXES}
+
+
+_SECTION_FRAME = ("section frame of the element after gauge_{k}_s (at the last point: the last element): x along "
+                  "the rod towards larger arc length, y and z the element's section axes (docs/scene_format.md); "
+                  "what the part beyond the cut exerts on the part before it")
+
+
+def _gauge_info(k: int) -> dict:
+    frame = _SECTION_FRAME.format(k=k)
+    return {gauge_output(k, "N"): ("N", f"gauge {k}: axial force (tension > 0), {frame}"),
+            gauge_output(k, "Vy"): ("N", f"gauge {k}: shear force along y, {frame}"),
+            gauge_output(k, "Vz"): ("N", f"gauge {k}: shear force along z, {frame}"),
+            gauge_output(k, "T"): ("N.m", f"gauge {k}: torque about x, about the centroid, {frame}"),
+            gauge_output(k, "My"): ("N.m", f"gauge {k}: bending moment about y (sigma_xx = N/A + My z/Iy - Mz y/Iz), "
+                                           f"{frame}"),
+            gauge_output(k, "Mz"): ("N.m", f"gauge {k}: bending moment about z, {frame}"),
+            gauge_output(k, "sigma_max"): ("Pa", f"gauge {k}: largest |axial stress| on the section from N, My, Mz "
+                                                 "(circle, tube, rectangle sections)"),
+            gauge_output(k, "von_mises"): ("Pa", f"gauge {k}: largest von Mises stress on the section from axial "
+                                                 "force, bending and torsion (transverse shear left out; rectangle: "
+                                                 "an upper bound)")}
 
 
 #: name -> (unit, description) of every FMU variable; the FMU build writes these into modelDescription.xml.
@@ -116,4 +165,7 @@ VARIABLE_INFO: dict[str, tuple[str, str]] = {
     **{f"f_{i}": ("Hz", f"natural frequency {i} of the clamped structure (0 = not available)")
        for i in range(1, N_REPORTED_FREQUENCIES + 1)},
     "elastic_energy": ("J", "strain energy of the retained modes (plus the static correction's when on)"),
+    **{f"gauge_{k}_s": ("m", f"arc length of strain gauge {k} from the first point (a mesh node; at a corner the "
+                             "section after it); -1 = no gauge (its outputs 0)") for k in range(1, GAUGE_SLOTS + 1)},
+    **{name: info for k in range(1, GAUGE_SLOTS + 1) for name, info in _gauge_info(k).items()},
 }

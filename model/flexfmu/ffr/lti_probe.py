@@ -65,7 +65,7 @@ def ffrbeam_probe(sim, input_names: tuple, output_names: tuple) -> Probe:
         maps = s._maps(None)
         Cu = maps.Cu.copy()
         if maps.energy is not None:
-            Cu[-1] += maps.energy[1]          # the static correction's energy: u-linear part (the u-u part: quads)
+            Cu[output_names.index("elastic_energy")] += maps.energy[1]   # the static correction's energy: u-linear part
         return maps.Cx.copy(), Cu, maps.y0.copy()
 
     def outputs(x, v, p):

@@ -30,22 +30,27 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from flexfmu.core.checks import finite_input, shown
+from flexfmu.core.stress import evaluate_derived
 from flexfmu.errors import FlexfmuError, ParameterError, require
 from flexfmu.core.cache import BoundedCache
 from flexfmu.core.step_size import StepSizes
 from flexfmu.ffr.dynamics import MAP_MEMO_SIZE, RK4_STABILITY_LIMIT, BaseMotion, ModalState
+from flexfmu.ffr.gauges import DerivedFill
 # The FMU's variables and parameters, the model a configuration builds and the failure diagnostics live in their own
 # modules; their public names are re-exported here, where the FMU registry and the rest of flexfmu import them from.
 from flexfmu.ffr.ffrbeam_build import TAIL_FRACTION, _build  # noqa: F401
-from flexfmu.ffr.ffrbeam_config import (AXES, BASE_INPUTS, FORCE_INPUTS, INPUT_NAMES, INTEGRATORS,  # noqa: F401
-                                        N_REPORTED_FREQUENCIES, OUTPUT_NAMES, RK4_STEP_FRACTION, VARIABLE_INFO,
-                                        FFRBeamConfig, _check_config)
+from flexfmu.ffr.ffrbeam_config import (AXES, BASE_INPUTS, ENERGY_OUTPUT, FORCE_INPUTS, GAUGE_ROWS,  # noqa: F401
+                                        INPUT_NAMES, INTEGRATORS, N_REPORTED_FREQUENCIES, OUTPUT_NAMES,
+                                        RK4_STEP_FRACTION, VARIABLE_INFO, FFRBeamConfig, _check_config)
 from flexfmu.ffr.ffrbeam_diagnostics import _DIVERGENCE_LIMIT, FFRBeamDiagnostics
 from flexfmu.native import lti_taylor, step_policy
 from flexfmu.core.vec3 import cross as _cross
 from flexfmu.core.vec3 import skew as _skew
 
 _INF = math.inf             # a module constant: cheaper than math.inf on the per-step path
+#: the outputs of fast_maps' rows (18 point and reaction outputs, then six section forces per gauge), OUTPUT_NAMES order
+_MAP_ROWS = np.r_[0:18, np.concatenate([np.arange(r, r + 6) for r in GAUGE_ROWS])]
+_GAUGE_FORCE_ROWS = _MAP_ROWS[18:]
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,6 +87,12 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         #: What the model chose and why (model size, RK4 sub-steps); the FMU logs and clears it.
         self.messages: list[str] = []
         self.messages.extend(built.choice.messages)
+        #: the gauges' stresses, computed from their section forces after the linear outputs (flexfmu.ffr.gauges)
+        self.derived_outputs = built.derived_outputs
+        self._fill_derived = DerivedFill(self.derived_outputs, OUTPUT_NAMES) if self.derived_outputs else None
+        gauges = self.dynamics.gauges
+        self._gauge_correction = (gauges.correction_rows(self.static_correction.residual)
+                                  if gauges.present and self.static_correction is not None else None)
         self.state = self.dynamics.initial_state()
         self.inputs = dict.fromkeys(INPUT_NAMES, 0.0)
         self._u = np.zeros(len(INPUT_NAMES))          # the inputs as a vector, INPUT_NAMES order
@@ -195,9 +206,9 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         n = C.shape[1] - 9
         Cx = np.zeros((len(OUTPUT_NAMES), n))
         Cu = np.zeros((len(OUTPUT_NAMES), 9))
-        Cx[:18], Cu[:18] = C[:, :n], C[:, n:]
+        Cx[_MAP_ROWS], Cu[_MAP_ROWS] = C[:, :n], C[:, n:]
         y = np.zeros(len(OUTPUT_NAMES))
-        y[:18] = y0
+        y[_MAP_ROWS] = y0
         y[18:18 + N_REPORTED_FREQUENCIES] = self.frequencies_hz
         energy = None
         if self.static_correction is not None:
@@ -308,11 +319,15 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
 
     def _add_static_correction(self, Cu: np.ndarray, y: np.ndarray, base: BaseMotion):
         """Residual flexibility (flexfmu.sizing.model_size) in the output maps for the held base rotation:
-        sensor_u and tip_u gain R f as affine terms of the inputs [F, M, a0]; returns the strain energy's
+        sensor_u, tip_u and the gauges' section forces (K_e R f) gain R f as affine terms of the inputs [F, M, a0];
+        returns the strain energy's
         1/2 f^T R f as (Q (9, 9), linear (9,), constant) in those inputs."""
         corr = self.static_correction
         xab = self.static_correction_weights(base)               # X_ab, row-major: the rotation patterns' weights
-        for rows, block in ((slice(0, 3), corr.sensor), (slice(9, 12), corr.tip)):
+        blocks = [(slice(0, 3), corr.sensor), (slice(9, 12), corr.tip)]
+        if self._gauge_correction is not None:
+            blocks.append((_GAUGE_FORCE_ROWS, self._gauge_correction))
+        for rows, block in blocks:
             Cu[rows] += block[:, :9]
             y[rows] += block[:, 9:] @ xab
         Q = corr.energy
@@ -411,10 +426,12 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
                 y += Cu @ u
                 dyn = self.dynamics
                 y[15:18] += _cross(dyn.load_disp_map @ eta, u[0:3]) - _cross(dyn.S_bar_hat @ eta, u[6:9])
-            y[-1] = 0.5 * float(eta @ (self._k * eta))
+            y[ENERGY_OUTPUT] = 0.5 * float(eta @ (self._k * eta))
             if energy is not None:        # + 1/2 f^T R f of the static correction
                 Q, linear, constant = energy
-                y[-1] += float(u @ (Q @ u)) + float(linear @ u) + constant
+                y[ENERGY_OUTPUT] += float(u @ (Q @ u)) + float(linear @ u) + constant
+            if self._fill_derived is not None:      # the gauges' stresses from their section forces
+                self._fill_derived(y)
             # finite maps and a state within the divergence limit give finite outputs unless inputs enter
             # (or the maps are wide): then one dot product (~0.3 us), the culprit only on failure
             if (loaded or energy is not None or maps.wide) and not y.dot(y) < _INF and not np.all(np.isfinite(y)):
@@ -436,6 +453,8 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
         u, v, a = dyn.sensor_motion(state, eta_ddot, base)
         F, M = dyn.reactions(state, eta_ddot, force, moment, base)
         tip, energy = dyn.tip_displacement(state), dyn.elastic_energy(state)
+        q_modal = dyn.Phi @ state.eta
+        q_res = np.zeros_like(q_modal)
         if self.static_correction is not None:     # q_residual = R f on all DOFs, f from Eq. (*)'s patterns
             W = _skew(base.omega)
             z = np.concatenate([force, moment, base.a0, (_skew(base.alpha) + W @ W).ravel()])
@@ -443,7 +462,11 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
             u = u + dyn.sensor.displacement_body(q_res)
             tip = tip + dyn.tip.displacement_body(q_res)
             energy += 0.5 * float(q_res @ (dyn.model.K @ q_res))
-        values = np.concatenate([u, v, a, tip, F, M, self.frequencies_hz, [energy]])
+        sections = dyn.gauges.reference(q_modal + q_res, q_modal, dyn.Phi @ state.eta_dot, dyn.Phi @ eta_ddot,
+                                        base.a0, base.omega, base.alpha).reshape(-1, 6)
+        gauges = np.hstack([sections, np.zeros((len(sections), 2))]).ravel()     # the stresses: derived below
+        values = np.concatenate([u, v, a, tip, F, M, self.frequencies_hz, [energy], gauges])
+        evaluate_derived(self.derived_outputs, OUTPUT_NAMES, values)
         return dict(zip(OUTPUT_NAMES, values.tolist()))
 
     # ---- state for FMI get/set/serialize: plain JSON-able data
