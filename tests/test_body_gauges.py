@@ -156,6 +156,10 @@ def stress_names(gauge):
     return [f"{gauge}.sigma_{c}" for c in VOIGT]
 
 
+def strain_names(gauge):
+    return [f"{gauge}.eps_{c}" for c in VOIGT]
+
+
 # ---------------------------------------------------------------------------------------------- the tests
 def test_static_interface_load_gives_the_full_models_stress(exported, full):
     """A held tip force: the FMU's gauges (its exact zero-order-hold step of 1 s with 2 % damping: settled to
@@ -168,7 +172,8 @@ def test_static_interface_load_gives_the_full_models_stress(exported, full):
     u[free] = spla.splu(structure.K[free][:, free].tocsc()).solve(f[free])
     reference = gauge_stresses(evaluator, structure, u[:, None])
 
-    names = [n for g in ("root", "hole") for n in stress_names(g) + [f"{g}.von_mises"]]
+    names = [n for g in ("root", "hole") for n in stress_names(g) + [f"{g}.von_mises"] + strain_names(g)]
+    names += [f"q_{k}" for k in range(1, body.n_coordinates + 1)] + [f"tip.pos_{a}" for a in "xyz"]
     signal = np.array([(0.0, *FORCE), (1.0, *FORCE)], dtype=[("time", float), ("tip.F_x", float),
                                                              ("tip.F_y", float), ("tip.F_z", float)])
     result = fmu_outputs(fmu, 1.0, 1.0, signal, names)
@@ -188,6 +193,23 @@ def test_static_interface_load_gives_the_full_models_stress(exported, full):
         assert error < STATIC_RTOL and tensor_error < STATIC_RTOL
         assert error_modes > error
         assert vm_got == pytest.approx(float(von_mises(got)), rel=1e-12)
+        # strain = C^-1 stress (isotropic: eps = ((1 + nu) sigma - nu tr(sigma) I) / E, tensor components)
+        E, nu = dict(structure.provenance.material)["E"], dict(structure.provenance.material)["nu"]
+        strain = np.array([result[c][-1] for c in strain_names(gauge.name)])
+        compliance = (1 + nu) / E * got - nu / E * np.concatenate([np.full(3, got[:3].sum()), np.zeros(3)])
+        assert np.abs(strain - compliance).max() <= 1e-12 * np.abs(strain).max()
+    # the shape coordinates: the stress shapes of the shape file times q give the node set's gauge again
+    from flexfmu.body.shape_file import read_fmu_shape
+    shape = read_fmu_shape(fmu)
+    q = np.array([result[f"q_{k}"][-1] for k in range(1, body.n_coordinates + 1)])
+    assert shape.names == tuple(f"q_{k}" for k in range(1, body.n_coordinates + 1))
+    hole = (shape.stress[structure.node_sets["bolt_1"]] @ q).mean(axis=0)
+    assert np.allclose(hole, [result[c][-1] for c in stress_names("hole")], rtol=0, atol=1e-9 * np.abs(hole).max())
+    # and Psi q the displacement: the tip's (its patch's rigid fit, with the point at the patch's centre the mean
+    # translation of its nodes)
+    patch = structure.node_sets["arm_top"]
+    tip = structure.nodes[patch].mean(axis=0) + (shape.Psi[patch] @ q).mean(axis=0)
+    assert np.allclose(tip, [result[f"tip.pos_{a}"][-1] for a in "xyz"], rtol=0, atol=1e-12)
 
 
 def newmark_full(structure, free, force_of_t, h, substeps, n_steps):
@@ -244,3 +266,108 @@ def test_half_sine_pulse_follows_the_full_transient(exported, full):
               f"worst difference over time {worst:.2e} of the largest")
         assert worst < DYNAMIC_RTOL
         assert vm_got.max() == pytest.approx(peak, rel=DYNAMIC_RTOL)
+
+
+def test_the_model_description_names_the_gauges_and_their_units(exported):
+    """Per gauge 13 outputs (sigma_xx .. sigma_xz, von_mises in Pa, eps_* dimensionless), q_1 .. q_m, and the
+    documentation says where each gauge reads."""
+    fmu, body, _ = exported
+    md = fmpy.read_model_description(str(fmu))
+    outputs = {v.name: v for v in md.modelVariables if v.causality == "output"}
+    assert [v.name for v in md.modelVariables if v.name.startswith("q_")] == \
+        [f"q_{k}" for k in range(1, body.n_coordinates + 1)] and body.n_coordinates == 22
+    for gauge in ("root", "hole"):
+        for name in stress_names(gauge) + [f"{gauge}.von_mises"]:
+            assert outputs[name].unit == "Pa"
+        for name in strain_names(gauge):
+            assert not outputs[name].unit
+    with zipfile.ZipFile(fmu) as z:
+        html = z.read("documentation/index.html").decode()
+    assert "node set &#x27;bolt_1&#x27; (70 nodes): averaged nodal stress" in html or "bolt_1" in html
+    assert "point (0.0005, 0.02, 0.008) m in tetra10 cell" in html
+
+
+# ---------------------------------------------------------------------------------------------- a small hex bar
+E_BAR, NU_BAR, RHO_BAR = 2.1e11, 0.3, 7850.0
+BAR = (0.4, 0.04, 0.02)                  # m, along x; root (x = 0) and tip (x = 0.4) node sets
+
+
+@pytest.fixture(scope="module")
+def bar(tmp_path_factory):
+    import meshio
+    folder = tmp_path_factory.mktemp("bar")
+    axes = [np.linspace(0, BAR[0], 21), np.linspace(-BAR[1] / 2, BAR[1] / 2, 5), np.linspace(-BAR[2] / 2, BAR[2] / 2, 3)]
+    X, Y, Z = np.meshgrid(*axes, indexing="ij")
+    points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
+    index = np.arange(points.shape[0]).reshape(21, 5, 3)
+    cells = [[c[0, 0, 0], c[1, 0, 0], c[1, 1, 0], c[0, 1, 0], c[0, 0, 1], c[1, 0, 1], c[1, 1, 1], c[0, 1, 1]]
+             for c in (index[i:i + 2, j:j + 2, k:k + 2] for i in range(20) for j in range(4) for k in range(2))]
+    path = folder / "bar.inp"
+    meshio.write(str(path), meshio.Mesh(points, [("hexahedron", np.array(cells))],
+                                        point_sets={"root": index[0].ravel(), "tip": index[-1].ravel(),
+                                                    "middle": index[10].ravel()}))
+    return path
+
+
+def export_bar(bar, *extra):
+    return main(["export", str(bar), "-o", str(bar.parent / "Bar.fmu"), "--material", f"{E_BAR},{NU_BAR},{RHO_BAR}",
+                 "--interface", "tip=tip", *extra])
+
+
+def test_hexahedra_give_the_bars_axial_stress(bar):
+    """Hexahedra: a clamped bar pulled at its tip carries sigma_xx = F / A away from its ends (Saint-Venant), exactly
+    for the uniform strain trilinear cells represent; the gauges read it at a point and over the middle section (the
+    static correction makes the reduced static response the full model's)."""
+    from flexfmu.body.build import build_body
+    from flexfmu.body.simulator import FlexBodySimulator
+    from flexfmu.importers import load_structure
+    structure = load_structure(bar, material={"E": E_BAR, "nu": NU_BAR, "rho": RHO_BAR})
+    body = build_body(structure, interfaces=[{"name": "tip", "point": None, "node_set": "tip"}], clamp="root",
+                      f_max=2000.0, gauges=["mid=0.21,0.003,0.001", "section=middle"])
+    assert body.n_coordinates > body.n_modes           # the static correction is on
+    sim = FlexBodySimulator(body)
+    force = 1000.0
+    sim.set_inputs(**{"tip.F_x": force})
+    sim.step(10.0)                                      # exact step: settled (2 % damping, e^-hundreds)
+    out = sim.outputs()
+    axial = force / (BAR[1] * BAR[2])
+    for gauge in ("mid", "section"):
+        stress = np.array([out[n] for n in stress_names(gauge)])
+        # the clamp holds the root's lateral contraction and the tip patch spreads the force: end disturbances that
+        # decay as e^(-pi x / b) (b = 0.04 m, the section's width; Saint-Venant), ~3e-7 at the 0.19 m to either end
+        assert stress[0] == pytest.approx(axial, rel=1e-5)
+        assert np.abs(stress[1:]).max() < 1e-5 * axial
+        assert out[f"{gauge}.von_mises"] == pytest.approx(float(von_mises(stress)), rel=1e-12)
+        assert out[f"{gauge}.eps_xx"] == pytest.approx(axial / E_BAR, rel=1e-5)
+
+
+@pytest.mark.parametrize("gauge, message", [
+    ("nothing", "--gauge"),
+    ("g=0.1,0.2", "three finite coordinates"),
+    ("g=no_such_set", "'no_such_set' is not a node set"),
+    ("g=1.0,0,0", "is in no cell of the mesh"),
+    ("1g=tip", "is not a gauge name"),
+])
+def test_bad_gauges_are_refused_naming_gauge(bar, capsys, gauge, message):
+    code = export_bar(bar, "--clamp", "root", "--modes", "2", "--gauge", gauge)
+    err = capsys.readouterr().err
+    assert code == 2 and "gauge" in err and message in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_duplicate_gauge_names_free_bodies_and_matrix_models_are_refused(bar, capsys, tmp_path):
+    assert export_bar(bar, "--clamp", "root", "--modes", "2", "--gauge", "g=tip", "--gauge", "g=middle") == 2
+    assert "'g' is given twice" in capsys.readouterr().err
+    assert export_bar(bar, "--modes", "2", "--gauge", "g=tip") == 2
+    err = capsys.readouterr().err
+    assert "gauge" in err and "free body" in err and "--clamp" in err
+    # a model read as matrices (here: the bar saved without its cells) has no stress to evaluate
+    from flexfmu.core.io import save_structure
+    from flexfmu.importers import load_structure
+    import dataclasses
+    structure = load_structure(bar, material={"E": E_BAR, "nu": NU_BAR, "rho": RHO_BAR})
+    matrices = save_structure(tmp_path / "bar_matrices.npz", dataclasses.replace(structure, cells={}))
+    code = main(["export", str(matrices), "-o", str(tmp_path / "M.fmu"), "--interface", "tip=tip", "--clamp", "root",
+                 "--modes", "2", "--gauge", "g=tip"])
+    err = capsys.readouterr().err
+    assert code == 2 and "gauge" in err and "no volume cells" in err and "gmsh" in err, err

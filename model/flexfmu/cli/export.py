@@ -12,6 +12,19 @@ from flexfmu.errors import ParameterError
 
 def _export(args: argparse.Namespace) -> int:
     """MODEL -> a self-contained FMU of a free or clamped flexible body with named interfaces."""
+    try:
+        return _export_body(args)
+    except ParameterError as exc:
+        if exc.parameter != "gauge":
+            raise
+        # the library names its argument (gauges); the command line's user typed --gauge
+        text = str(exc)[len("gauge: "):]
+        if exc.allowed and text.endswith(f" (allowed: {exc.allowed})"):
+            text = text[:-len(f" (allowed: {exc.allowed})")]
+        raise ParameterError("--gauge", text, exc.allowed) from None
+
+
+def _export_body(args: argparse.Namespace) -> int:
     from flexfmu.body.build import build_body, clamp_from_text
     from flexfmu.body.interfaces import interface_from_text
     from flexfmu.body.stress import gauge_from_text
