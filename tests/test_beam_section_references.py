@@ -12,7 +12,7 @@ from scipy.integrate import quad
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "reference" / "beam_sections"))
 from beam_frame3d import Frame, FrameSection, PolylineFrame, section_axes, section_forces_at  # noqa: E402
-from eb_base_excitation import CASE, Cantilever, cantilever_roots, mode_sigma  # noqa: E402
+from eb_base_excitation import CASE, Cantilever, cantilever_roots, mode_curvature_shape, mode_sigma  # noqa: E402
 
 pytestmark = pytest.mark.unit
 
@@ -281,3 +281,44 @@ def test_reaction_equals_the_elastic_moment_without_damping_and_differs_by_the_d
                                                        / omega, axis=1)
     np.testing.assert_allclose(CASE.root_reaction_transfer(w), CASE.root_moment_transfer(w) + damping_moment,
                                rtol=1e-12, equal_nan=False)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_curvature_shape_is_the_mode_shapes_second_derivative(n):
+    """psi_n(beta_n x) beta_n^2 / sqrt(rho A L) = phi_n''(x), by a central difference of mode_shape, along the rod;
+    and its overflow-free form equals the direct one."""
+    c = CASE
+    z = cantilever_roots(n)[-1]
+    b = z / c.L
+    for x in (0.1, 0.25, 0.5, 0.8):
+        h = 1e-4 * c.L
+        fd = (float(c.mode_shape(n, x - h)) - 2 * float(c.mode_shape(n, x)) + float(c.mode_shape(n, x + h))) / h**2
+        psi = float(mode_curvature_shape(np.array([z]), x / c.L)[0])
+        assert psi * b**2 / math.sqrt(c.rho * c.A * c.L) == pytest.approx(fd, rel=1e-5, abs=1e-5 * b**2)
+        s = mode_sigma(z)
+        direct = math.cosh(b * x) + math.cos(b * x) - s * (math.sinh(b * x) + math.sin(b * x))
+        assert psi == pytest.approx(direct, rel=1e-12, abs=1e-12 * math.cosh(b * x))
+
+
+def test_curvature_shapes_stay_within_the_stated_bound():
+    z = cantilever_roots(200)
+    assert max(np.max(np.abs(mode_curvature_shape(z, xi))) for xi in np.linspace(0, 1, 501)) <= 4.43
+
+
+@pytest.mark.parametrize("x", [0.0, 0.25, 0.5, 0.9, 1.0])
+@pytest.mark.parametrize("ratio", [0.01, 0.5, 2.0, 3.5, 9.0, 12.0])
+def test_undamped_moment_along_the_rod_equals_the_krylov_closed_form(x, ratio):
+    c = Cantilever(CASE.L, CASE.E, CASE.I, CASE.rho, CASE.A, zeta=0.0)
+    w = ratio * c.natural_frequencies(1)[0]
+    series = c.moment_transfer(w, x)[0]
+    closed = c.undamped_moment_transfer(w, x)[0]
+    assert abs(series - closed) <= c.truncation_bound(w, x=x)[0] + 1e-9 * c.static_root_moment
+
+
+def test_moment_along_the_rod_quasi_statically_and_at_the_ends():
+    for x in (0.0, 0.3, 0.7, 1.0):
+        G = CASE.moment_transfer(1e-3, x)[0]
+        assert G.real == pytest.approx(-CASE.rho * CASE.A * (CASE.L - x) ** 2 / 2, rel=1e-7, abs=1e-12)
+    w = np.array([0.5, 1.0, 6.0]) * CASE.natural_frequencies(1)[0]
+    np.testing.assert_allclose(CASE.moment_transfer(w, 0.0), CASE.root_moment_transfer(w), rtol=1e-12)
+    assert np.all(np.abs(CASE.moment_transfer(w, CASE.L)) < 1e-10 * CASE.static_root_moment)   # free end
