@@ -329,23 +329,27 @@ def test_a_model_file_without_derived_entries_loads(standin_fmu, tmp_path):
 
 
 # ---------------------------------------------------------------------------------------------- an exported body
+#: examples/bracket clamped at its bolts, a tip interface, two gauges: a node set's averaged nodal stress, a point's
+BRACKET_GAUGES = ("root=bolt_1", "arm=0.04,0.02,0.003")
+
+
 @pytest.fixture(scope="module")
 def bracket(tmp_path_factory):
-    """examples/bracket clamped at its bolts, a tip interface, two gauges (a node set's averaged stress, and a point's)
-    (docs/export.md's command with --gauge, flexfmu.fmi.native.export_native's steps): (body, native FMU of FMI 2.0,
-    of FMI 3.0), co-simulation and model exchange."""
+    """(body, its native FMU of FMI 2.0, of FMI 3.0), co-simulation and model exchange, by the steps of ``flexfmu
+    export ... --runtime native --gauge ...`` (flexfmu.fmi.native.export_native: body_source, build_native_fmu) from
+    one body, the one the Python reference runs: two builds of a body differ by the eigensolver's tolerance (~1e-10
+    in the outputs, a mode's sign), more than what is compared here."""
     pytest.importorskip("meshio")
+    from pathlib import Path
+
     from flexfmu.body.build import build_body, clamp_from_text
     from flexfmu.body.interfaces import interface_from_text
     from flexfmu.fmi.native import body_source
     from flexfmu.fmi.native_build import build_native_fmu
     from flexfmu.importers import load_structure
-    from pathlib import Path
-    root = Path(__file__).resolve().parents[1]
-    structure = load_structure(root / "examples" / "bracket" / "bracket.json")
+    structure = load_structure(Path(__file__).resolve().parents[1] / "examples" / "bracket" / "bracket.json")
     body = build_body(structure, interfaces=[interface_from_text("tip=arm_top")],
-                      clamp=clamp_from_text(structure, "bolt_1,bolt_2"), n_modes=8,
-                      gauges=["root=bolt_1", "arm=0.04,0.02,0.003"])
+                      clamp=clamp_from_text(structure, "bolt_1,bolt_2"), n_modes=8, gauges=list(BRACKET_GAUGES))
     source, out = body_source(body, "BracketGauges"), tmp_path_factory.mktemp("bracket")
     return body, *(build_native_fmu(source, out / f"fmi{v}" / "BracketGauges.fmu", fmi_version=v, interface="both")
                    for v in (2, 3))
