@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 fmpy = pytest.importorskip("fmpy")
@@ -296,7 +295,8 @@ BAR = (0.4, 0.04, 0.02)                  # m, along x; root (x = 0) and tip (x =
 def bar(tmp_path_factory):
     import meshio
     folder = tmp_path_factory.mktemp("bar")
-    axes = [np.linspace(0, BAR[0], 21), np.linspace(-BAR[1] / 2, BAR[1] / 2, 5), np.linspace(-BAR[2] / 2, BAR[2] / 2, 3)]
+    axes = [np.linspace(0, BAR[0], 21), np.linspace(-BAR[1] / 2, BAR[1] / 2, 5),
+            np.linspace(-BAR[2] / 2, BAR[2] / 2, 3)]
     X, Y, Z = np.meshgrid(*axes, indexing="ij")
     points = np.column_stack([X.ravel(), Y.ravel(), Z.ravel()])
     index = np.arange(points.shape[0]).reshape(21, 5, 3)
