@@ -228,30 +228,55 @@ def native_run(fmu, inputs, outputs, n_steps: int, h: float = H, first=(), **sta
         inst.free()
 
 
+#: the double L clamped at s = 0 (XFF), a gauge at the clamp, at the first corner and on the last segment, the static
+#: correction and geometric stiffening on (every kind of output term)
+FFR_SETTINGS = {"boundary": "XFF", "load_s": 0.45, "sensor_s": 0.04, "static_correction": 1,
+                "geometric_stiffening": True, "gauge_1_s": 0.0, "gauge_2_s": 0.16, "gauge_3_s": 0.375}
+
+
+def _ffrbeam_simulator():
+    from flexfmu.ffr.ffrbeam_config import FFRBeamConfig
+    from flexfmu.ffr.simulator import FFRBeamSimulator
+    return FFRBeamSimulator(FFRBeamConfig(**FFR_SETTINGS))
+
+
 @pytest.fixture(scope="module")
-def standin_fmu(tmp_path_factory, standin):
-    """The stand-in as a native FFRBeam FMU: the registry's source of STANDIN_SETTINGS with the stand-in model."""
-    from flexfmu.fmi.native import registry_source
-    from flexfmu.fmi.native_build import build_native_fmu
-    source = registry_source("FFRBeam", STANDIN_SETTINGS)
-    source.lti = standin[1]
-    return build_native_fmu(source, tmp_path_factory.mktemp("standin") / "FFRBeam.fmu")
+def ffrbeam_fmu(tmp_path_factory):
+    """FFRBeam with three gauges, by ``flexfmu build --runtime native --fmu FFRBeam --set ...`` (co-simulation and
+    model exchange)."""
+    from flexfmu.cli import main as flexfmu
+    out = tmp_path_factory.mktemp("ffrbeam")
+    status = flexfmu(["build", "--runtime", "native", "--fmu", "FFRBeam",
+                      *(a for k, v in FFR_SETTINGS.items() for a in ("--set", f"{k}={v}")),
+                      "--interface", "both", "--out", str(out)])
+    assert status == 0
+    return out / "FFRBeam.fmu"
 
 
-def test_the_stand_in_fmu_equals_the_python_simulator(standin_fmu):
-    """Every output over 0.4 s of moving loads and base motion, the derived ones also read alone (their sources
-    computed with them): equal to the Python simulator's with evaluate_derived to RTOL of each output's scale."""
+def test_ffrbeams_gauges_equal_the_python_simulator(ffrbeam_fmu):
+    """Every output (the gauges' section forces, sigma_max and von_mises among them) over 0.4 s of moving loads and
+    base motion, the derived ones also read alone first (their sources computed with them): the native FMU equals
+    the Python simulator (whose output_vector fills the derived outputs) to RTOL of each output's scale."""
     from flexfmu.ffr.simulator import INPUT_NAMES, OUTPUT_NAMES
+    sim = _ffrbeam_simulator()
+    derived = sim.derived_outputs
+    assert len(derived) == 6
     n = 400
-    first = tuple(d.output for d in STANDIN)
-    ours, alone = native_run(standin_fmu, INPUT_NAMES, OUTPUT_NAMES, n, first=first)
-    theirs = python_run(_standin_simulator(), STANDIN, INPUT_NAMES, OUTPUT_NAMES, n)
+    first = tuple(d.output for d in derived)
+    ours, alone = native_run(ffrbeam_fmu, INPUT_NAMES, OUTPUT_NAMES, n, first=first)
+    theirs = python_run(sim, (), INPUT_NAMES, OUTPUT_NAMES, n)
     errors = relative_errors(ours, theirs)
     worst = int(np.argmax(errors))
     assert errors.max() < RTOL, (OUTPUT_NAMES[worst], errors[worst])
-    rows = [OUTPUT_NAMES.index(d) for d in first]
-    assert np.array_equal(alone, ours[:, rows])
-    assert (np.abs(theirs[:, rows]).max(axis=0) > 0).all() and np.ptp(theirs[:, rows], axis=0).min() > 0
+    assert np.array_equal(alone, ours[:, [OUTPUT_NAMES.index(d) for d in first]])
+    gauges = [k for k, name in enumerate(OUTPUT_NAMES) if name.startswith("gauge_")]
+    assert len(gauges) == 24 and np.ptp(theirs[:, gauges], axis=0).min() > 0        # every gauge output moves
+
+
+def test_ffrbeams_section_stresses_directional_derivatives_equal_central_differences(ffrbeam_fmu):
+    """sigma_max and von_mises of the circle section (the chain rule through hypot and |.|) and their section forces,
+    as the bracket's below."""
+    _check_directional(ffrbeam_fmu, "gauge_", [d.output for d in _ffrbeam_simulator().derived_outputs])
 
 
 def _instantiate_edited(fmu, tmp_path, edit) -> tuple[bool, list]:
@@ -297,34 +322,34 @@ def _set(name, index, value):
 
 
 @pytest.mark.parametrize("edit, output, what", [
-    (_set("lti.derived.fibres", (0, 0), math.nan), "elastic_energy", "section constant"),
-    (_set("lti.derived.fibres", (1, 3), -1.0), "f_5", "section constant"),
-    (_set("lti.derived.kind", 2, 7), "f_6", "unknown kind"),
-    (_set("lti.derived.shape", 2, 1), "f_6", "section shape"),
-    (_set("lti.derived.sources", (1, 2), lambda ny, rows: ny), "f_5", "source index"),
-    (_set("lti.derived.sources", (1, 4), 0), "f_5", "source index"),
-    (_set("lti.derived.sources", (2, 0), lambda ny, rows: rows[0]), "f_6", "derived output as a source"),
-    (_set("lti.derived.output", 1, lambda ny, rows: rows[0]), "elastic_energy", "another entry computes"),
+    (_set("lti.derived.fibres", (0, 0), math.nan), "gauge_1_sigma_max", "section constant"),
+    (_set("lti.derived.fibres", (1, 3), -1.0), "gauge_1_von_mises", "section constant"),
+    (_set("lti.derived.kind", 2, 7), "gauge_2_sigma_max", "unknown kind"),
+    (_set("lti.derived.shape", 2, 0), "gauge_2_sigma_max", "section shape"),
+    (_set("lti.derived.sources", (1, 2), lambda ny, rows: ny), "gauge_1_von_mises", "source index"),
+    (_set("lti.derived.sources", (1, 4), 0), "gauge_1_von_mises", "source index"),
+    (_set("lti.derived.sources", (2, 0), lambda ny, rows: rows[0]), "gauge_2_sigma_max", "derived output as a source"),
+    (_set("lti.derived.output", 1, lambda ny, rows: rows[0]), "gauge_1_sigma_max", "another entry computes"),
     (_set("lti.derived.output", 0, -1), "(none)", "output index"),
 ], ids=["nan-constant", "negative-J", "kind", "shape", "source-range", "source-padding", "chained", "twice",
         "output-range"])
-def test_bad_derived_entries_are_refused_naming_the_entry(standin_fmu, tmp_path, edit, output, what):
-    made, log = _instantiate_edited(standin_fmu, tmp_path, edit)
+def test_bad_derived_entries_are_refused_naming_the_entry(ffrbeam_fmu, tmp_path, edit, output, what):
+    made, log = _instantiate_edited(ffrbeam_fmu, tmp_path, edit)
     assert not made
     assert any("lti.derived" in m and f"(output {output})" in m and what in m and "allowed:" in m for m in log), log
 
 
-def test_a_model_file_without_derived_entries_loads(standin_fmu, tmp_path):
+def test_a_model_file_without_derived_entries_loads(ffrbeam_fmu, tmp_path):
     """An older model file (no lti.derived.* entries) loads; a wrongly shaped one is refused naming it."""
     def drop(entries):
         for name in [n for n in entries if n.startswith("lti.derived.")]:
             del entries[name]
-    made, log = _instantiate_edited(standin_fmu, tmp_path, drop)
+    made, log = _instantiate_edited(ffrbeam_fmu, tmp_path, drop)
     assert made, log
 
     def short(entries):
         entries["lti.derived.fibres"] = entries["lti.derived.fibres"][:, :6].copy()
-    made, log = _instantiate_edited(standin_fmu, tmp_path, short)
+    made, log = _instantiate_edited(ffrbeam_fmu, tmp_path, short)
     assert not made and any("lti.derived.fibres" in m for m in log), log
 
 
@@ -375,15 +400,14 @@ def test_the_exported_bodys_gauges_equal_the_python_simulator(bracket):
     assert np.ptp(theirs[:, gauges], axis=0).min() > 0          # every gauge output moves
 
 
-def test_the_derived_outputs_directional_derivatives_equal_central_differences(bracket):
-    """The gauges' von Mises (the chain rule through csrc/derived_stress.c) and their sources, by fmi2GetDirectional
-    Derivative against central differences of the model-exchange instance at a random state and random inputs
-    (tests/test_fmu_directional.py's jacobians, at steps 1e-4 of each known's scale: von Mises is smooth away from
-    zero, so the differences err by (1e-4)^2 of its curvature and by rounding eps |y| / 1e-4); errors relative to
-    each output's largest sensitivity."""
+def _check_directional(fmu, prefixes, derived):
+    """The outputs named ``prefixes``* (the gauges'), ``derived`` among them: fmi2GetDirectionalDerivative against
+    central differences of the model-exchange instance at a random state and random inputs (tests/test_fmu_directional
+    .py's jacobians, at steps 1e-4 of each known's scale: the stresses are smooth away from their kinks (zero), so
+    the differences err by (1e-4)^2 of their curvature and by rounding eps |y| / 1e-4); errors relative to each
+    output's largest sensitivity."""
     from me_helpers import MeInstance
     from test_fmu_directional import jacobians, random_point
-    body, fmu, _ = bracket
     inst = MeInstance(fmu, "me")
     try:
         x, inputs = random_point(inst, seed=11)
@@ -391,14 +415,19 @@ def test_the_derived_outputs_directional_derivatives_equal_central_differences(b
         names = [v.name for v in inst.md.modelVariables if v.causality == "output"]
     finally:
         inst.free()
-    rows = [k for k, n in enumerate(names) if n.startswith(("root.", "arm."))]
-    derived = [names.index(d.output) for d in body.derived_outputs()]
+    rows = [k for k, n in enumerate(names) if n.startswith(prefixes)]
     sensitivity = np.max(np.abs(exact[rows]) * scales, axis=1)
     assert (sensitivity > 0).all()
     error = np.abs(exact - central)[rows] * scales / sensitivity[:, None]
     worst = np.unravel_index(error.argmax(), error.shape)
     assert error.max() < 1e-6, (names[rows[worst[0]]], error.max())
-    assert np.abs(exact[derived]).max() > 0
+    assert all(np.abs(exact[names.index(d)]).max() > 0 for d in derived)
+
+
+def test_the_bodys_gauges_directional_derivatives_equal_central_differences(bracket):
+    """The gauges' von Mises (the chain rule through csrc/derived_stress.c) and their stress and strain sources."""
+    body, fmu, _ = bracket
+    _check_directional(fmu, ("root.", "arm."), [d.output for d in body.derived_outputs()])
 
 
 def test_fmi3_gives_the_fmi2_gauges_bit_for_bit(bracket):
