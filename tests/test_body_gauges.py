@@ -371,3 +371,31 @@ def test_duplicate_gauge_names_free_bodies_and_matrix_models_are_refused(bar, ca
                  "--modes", "2", "--gauge", "g=tip"])
     err = capsys.readouterr().err
     assert code == 2 and "gauge" in err and "no volume cells" in err and "gmsh" in err, err
+
+
+def test_the_native_fmu_has_the_python_fmus_gauges(exported, tmp_path):
+    """The same body as a native FMU (flexfmu.fmi.native: the linear system extracted from the Python simulator's
+    maps, the gauges' stress and strain among its linear outputs, von Mises derived in C): its q, gauge and tip
+    outputs over a half-sine pulse with 2 % damping equal the Python FMU's to 1e-10 of each output's largest value
+    (both exact zero-order-hold steps of one linear system: they differ by rounding)."""
+    pytest.importorskip("flexfmu.native.lti_derived")
+    from flexfmu.fmi.native import export_native
+    from flexfmu.native.compiler import CompilerError
+    fmu, body, _ = exported
+    try:
+        native = export_native(body, tmp_path / "BracketNative.fmu")
+    except CompilerError as exc:                                       # pragma: no cover - no C compiler
+        pytest.skip(f"no C compiler: {exc}")
+    h, n_steps = 5e-5, 200
+    times = np.arange(n_steps + 1) * h
+    signal = np.zeros(n_steps + 1, dtype=[("time", float), ("tip.F_x", float), ("tip.F_z", float)])
+    signal["time"] = times
+    pulse = np.where(times < 2e-3, np.sin(np.pi * times / 2e-3), 0.0)
+    signal["tip.F_x"], signal["tip.F_z"] = FORCE[0] * pulse, FORCE[2] * pulse
+    names = ([f"q_{k}" for k in range(1, body.n_coordinates + 1)] + [f"tip.pos_{a}" for a in "xyz"]
+             + [n for g in ("root", "hole") for n in stress_names(g) + [f"{g}.von_mises"] + strain_names(g)])
+    python = fmu_outputs(fmu, times[-1], h, signal, names)
+    ours = fmu_outputs(native, times[-1], h, signal, names)
+    for name in names:
+        scale = np.abs(python[name]).max()
+        assert scale > 0 and np.abs(ours[name] - python[name]).max() <= 1e-10 * scale, name
