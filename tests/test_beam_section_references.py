@@ -12,7 +12,8 @@ from scipy.integrate import quad
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "reference" / "beam_sections"))
 from beam_frame3d import Frame, FrameSection, PolylineFrame, section_axes, section_forces_at  # noqa: E402
-from eb_base_excitation import CASE, Cantilever, cantilever_roots, mode_curvature_shape, mode_sigma  # noqa: E402
+from eb_base_excitation import (CASE, Cantilever, cantilever_roots, mode_curvature_shape,  # noqa: E402
+                                mode_shear_shape, mode_sigma)
 
 pytestmark = pytest.mark.unit
 
@@ -322,3 +323,40 @@ def test_moment_along_the_rod_quasi_statically_and_at_the_ends():
     w = np.array([0.5, 1.0, 6.0]) * CASE.natural_frequencies(1)[0]
     np.testing.assert_allclose(CASE.moment_transfer(w, 0.0), CASE.root_moment_transfer(w), rtol=1e-12)
     assert np.all(np.abs(CASE.moment_transfer(w, CASE.L)) < 1e-10 * CASE.static_root_moment)   # free end
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5])
+def test_shear_shape_is_the_curvature_shapes_derivative(n):
+    """psi_n' = d psi_n / du by a central difference, and its overflow-free form equals the direct one."""
+    z = cantilever_roots(n)[-1]
+    s = mode_sigma(z)
+    for xi in (0.0, 0.1, 0.5, 0.8, 1.0):
+        u, h = z * xi, 1e-5
+        fd = (float(mode_curvature_shape(np.array([z]), (u + h) / z)[0])
+              - float(mode_curvature_shape(np.array([z]), (u - h) / z)[0])) / (2 * h)
+        got = float(mode_shear_shape(np.array([z]), xi)[0])
+        assert got == pytest.approx(fd, abs=1e-8 * math.cosh(u))
+        direct = math.sinh(u) - math.sin(u) - s * (math.cosh(u) + math.cos(u))
+        assert got == pytest.approx(direct, abs=1e-12 * math.cosh(u))
+    roots = cantilever_roots(200)
+    assert max(np.max(np.abs(mode_shear_shape(roots, xi))) for xi in np.linspace(0, 1, 501)) <= 4.43
+
+
+@pytest.mark.parametrize("x", [0.0, 0.25, 0.5, 1.0])
+@pytest.mark.parametrize("ratio", [0.01, 0.5, 2.0, 3.5, 9.0, 12.0])
+def test_undamped_shear_along_the_rod_equals_the_krylov_closed_form(x, ratio):
+    c = Cantilever(CASE.L, CASE.E, CASE.I, CASE.rho, CASE.A, zeta=0.0)
+    w = ratio * c.natural_frequencies(1)[0]
+    series = c.shear_transfer(w, x)[0]
+    closed = c.undamped_shear_transfer(w, x)[0]
+    assert abs(series - closed) <= c.shear_truncation_bound(w)[0] + 1e-9 * c.rho * c.A * c.L
+
+
+def test_shear_is_minus_the_moments_slope_and_the_inertia_load_beyond_quasi_statically():
+    """V = -dM/dx (Eq. 13) between the two independent series, damped; V -> -rho A (L - x) as w -> 0."""
+    w = np.array([0.5, 1.0, 6.3]) * CASE.natural_frequencies(1)[0]
+    for x in (0.2, 0.5):
+        h = 1e-4
+        slope = (CASE.moment_transfer(w, x + h, 2000) - CASE.moment_transfer(w, x - h, 2000)) / (2 * h)
+        np.testing.assert_allclose(CASE.shear_transfer(w, x, 2000), -slope, rtol=1e-6)
+        assert CASE.shear_transfer(1e-3, x)[0].real == pytest.approx(-CASE.rho * CASE.A * (CASE.L - x), rel=1e-7)

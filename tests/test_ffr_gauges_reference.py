@@ -9,9 +9,10 @@ b) Dynamic: a straight 1 m cantilever shaken sideways at its clamp, a0 sin(w t) 
    to steady state with the exact integrator; the bending moment of gauges at the root, a quarter and mid-span
    (amplitude and phase, fitted over the last whole periods) against the closed-form Euler-Bernoulli moment with the
    same modal damping (eb_base_excitation), within 1 % at w / w1 = 0.5 .. 17.5: below, at and between the first three
-   resonances.  The
-   same runs check reaction_M against the clamp's d'Alembert reaction (eb_base_excitation Eq. 10), which also
-   balances the damping forces.
+   resonances; the shear force at the root likewise.  The shear at the interior gauges misses the damping load of
+   the element after the cut (O(h), up to 3 % here): test_interior_gauge_shear_matches_the_closed_form, an
+   expected failure until the gauges include it.  The same runs check reaction_M against the clamp's d'Alembert
+   reaction (eb_base_excitation Eq. 10), which also balances the damping forces.
 """
 import json
 import math
@@ -25,7 +26,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent / "reference" / "beam_sections"))
 from beam_frame3d import FrameSection, PolylineFrame, section_forces_at  # noqa: E402
 from eb_base_excitation import (CASE, DEFAULT_TERMS, cantilever_roots, mode_curvature_shape,  # noqa: E402
-                                mode_sigma)
+                                mode_shear_shape, mode_sigma)
 
 from flexfmu.ffr.simulator import OUTPUT_NAMES, FFRBeamConfig, FFRBeamSimulator  # noqa: E402
 
@@ -179,29 +180,32 @@ RATIOS = {"below 1st": 0.5, "at 1st": 1.0, "between 1st and 2nd": 1.5, "between 
           "at 2nd": OMEGA[1] / OMEGA[0], "between 2nd and 3rd": 8.0, "at 3rd": OMEGA[2] / OMEGA[0]}
 
 
-def modal_moment_terms(x: float) -> np.ndarray:
-    """t_n(x) = EI phi_n''(x) Gamma_n / omega_n^2 (N m per m/s^2), n = 1 .. 200: mode n's part of the static moment
-    at x (eb_base_excitation Eq. 11; t_n(0) = (rho A L^2 / 2) s_n)."""
+def modal_terms(x: float, quantity: str = "M") -> np.ndarray:
+    """Mode n's part of the static moment (quantity "M", N m per m/s^2) or shear force ("V", N per m/s^2) at x,
+    n = 1 .. 200: t_n(x) = EI phi_n''(x) Gamma_n / omega_n^2 (eb_base_excitation Eq. 11) or
+    v_n(x) = EI phi_n^(3)(x) Gamma_n / omega_n^2 (Eq. 13)."""
     z = cantilever_roots(DEFAULT_TERMS)
-    return CASE.rho * CASE.A * CASE.L**2 * 2 * mode_sigma(z) * mode_curvature_shape(z, x / CASE.L) / z**3
+    if quantity == "M":
+        return CASE.rho * CASE.A * CASE.L**2 * 2 * mode_sigma(z) * mode_curvature_shape(z, x / CASE.L) / z**3
+    return CASE.rho * CASE.A * CASE.L * 2 * mode_sigma(z) * mode_shear_shape(z, x / CASE.L) / z**2
 
 
-def transient_bound(w: float, t: float, x: float) -> float:
-    """Largest |moment at x| (N m per m/s^2) of the free vibration left at time t from a start at rest: mode n starts
-    with minus its steady state (|q| <= Gamma_n |H_n|, |q'| <= w Gamma_n |H_n|, Eq. 3), and a damped free vibration
-    (q0, v0) stays below e^{-zeta omega_n t} sqrt(q0^2 + ((v0 + zeta omega_n q0) / omega_d)^2); its moment at x is
-    EI phi_n''(x) q = t_n(x) omega_n^2 q / Gamma_n (Eq. 11)."""
+def transient_bound(w: float, t: float, x: float, quantity: str = "M") -> float:
+    """Largest |moment| (or |shear|) at x per unit a0 of the free vibration left at time t from a start at rest:
+    mode n starts with minus its steady state (|q| <= Gamma_n |H_n|, |q'| <= w Gamma_n |H_n|, Eq. 3), and a damped
+    free vibration (q0, v0) stays below e^{-zeta omega_n t} sqrt(q0^2 + ((v0 + zeta omega_n q0) / omega_d)^2); its
+    moment at x is EI phi_n''(x) q = t_n(x) omega_n^2 q / Gamma_n (Eq. 11; the shear likewise with v_n, Eq. 13)."""
     omega, z = CASE.natural_frequencies(), CASE.zeta
     H = np.abs(1.0 / (omega**2 - w**2 + 2j * z * omega * w))
     growth = np.sqrt(1 + ((w + z * omega) / (omega * math.sqrt(1 - z * z))) ** 2)
-    return float(np.sum(np.abs(modal_moment_terms(x)) * omega**2 * H * growth * np.exp(-z * omega * t)))
+    return float(np.sum(np.abs(modal_terms(x, quantity)) * omega**2 * H * growth * np.exp(-z * omega * t)))
 
 
-def omitted_modes_part(w: float, x: float, n_kept: int = DYN_MODES // 2) -> float:
-    """|sum_{n > n_kept} t_n(x) (omega_n^2 H_n - 1)|: what a static correction leaves out (Eqs. 7, 11)."""
+def omitted_modes_part(w: float, x: float, quantity: str = "M", n_kept: int = DYN_MODES // 2) -> float:
+    """|sum_{n > n_kept} t_n(x) (omega_n^2 H_n - 1)| (or v_n): what a static correction leaves out (Eqs. 7, 11, 13)."""
     omega, z = CASE.natural_frequencies(), CASE.zeta
     damping = 2j * z * omega * w
-    tail = (modal_moment_terms(x) * (w**2 - damping) / (omega**2 - w**2 + damping))[n_kept:]
+    tail = (modal_terms(x, quantity) * (w**2 - damping) / (omega**2 - w**2 + damping))[n_kept:]
     return float(abs(np.sum(tail)))
 
 
@@ -228,7 +232,7 @@ def shaken(sim: FFRBeamSimulator, axis: str, ratio: float):
     n_periods = math.ceil(RUN_DECAYS / (CASE.zeta * OMEGA[0]) / period)
     n_window = math.ceil(WINDOW_S / period) * per_period
     n_steps = n_periods * per_period
-    outputs = ["reaction_M_y", "reaction_M_z"] + ([f"gauge_{k}_M{a}" for k in (1, 2, 3) for a in "yz"]
+    outputs = ["reaction_M_y", "reaction_M_z"] + ([f"gauge_{k}_{q}{a}" for k in (1, 2, 3) for q in "MV" for a in "yz"]
                                                   if GAUGES_LANDED else [])
     rows = [OUTPUT_NAMES.index(name) for name in outputs]
     held = np.sin(w * (np.arange(n_steps + 1) + 0.5) * h)
@@ -250,6 +254,11 @@ def root_moment_component(axis: str, G: dict, prefix: str) -> complex:
     """The section moment along e_x cross e_a (the closed form's component) of outputs prefix + y / z: Mz for y, -My
     for z (rod along X, section axes = body axes by the orientation rule)."""
     return G[f"{prefix}z"] if axis == "y" else -G[f"{prefix}y"]
+
+
+def shear_component(axis: str, G: dict, prefix: str) -> complex:
+    """The section's shear force along e_a (the closed form's component, Eq. 13): Vy for y, Vz for z."""
+    return G[f"{prefix}{axis}"]
 
 
 @pytest.mark.unit
@@ -282,21 +291,54 @@ def test_reaction_moment_is_the_dalembert_reaction(shaken_sim, axis, ratio):
     assert abs(got - want) <= DYN_RTOL * abs(want)
 
 
+def compare_dynamic(G_fit, window_start, w, axis, k, x, quantity):
+    """(relative deviation, bounded errors, text) of gauge k's moment or shear against Eqs. (7), (11), (13)."""
+    if quantity == "M":
+        want, got = CASE.moment_transfer(w, x)[0], root_moment_component(axis, G_fit, f"gauge_{k}_M")
+        series = CASE.truncation_bound(w, x=x)[0]
+    else:
+        want, got = CASE.shear_transfer(w, x)[0], shear_component(axis, G_fit, f"gauge_{k}_V")
+        series = CASE.shear_truncation_bound(w)[0]
+    rel = abs(got - want) / abs(want)
+    what = f"gauge {k} (x = {x} m) {quantity} {axis} w/w1 = {w / OMEGA[0]:.4f}"
+    print(f"{what}: |G| {abs(got):.6g} vs {abs(want):.6g}, phase {np.angle(got):.5f} vs {np.angle(want):.5f} rad, "
+          f"rel {rel:.2e}")
+    # the bounded parts of the budget (the run long enough, the retained modes enough), relative to |G|
+    bounded = 2 * transient_bound(w, window_start, x, quantity) + omitted_modes_part(w, x, quantity) + series
+    return rel, bounded / abs(want), what
+
+
 @pytest.mark.study
 @needs_gauges
 @dynamic_cases
-def test_gauge_moments_match_the_closed_form(shaken_sim, axis, ratio):
-    """The bending moment of the gauges at the root, a quarter and mid-span (Eqs. 7, 11): each within 1 % of its
-    closed form's amplitude, phase included (the complex difference)."""
+def test_gauge_moments_and_root_shear_match_the_closed_form(shaken_sim, axis, ratio):
+    """The bending moment of the gauges at the root, a quarter and mid-span (Eqs. 7, 11) and the shear force at the
+    root (Eq. 13): each within 1 % of its closed form's amplitude, phase included (the complex difference)."""
     G_fit, window_start, w = shaken(shaken_sim, axis, ratio)
-    for k, x in enumerate(DYN_GAUGES, start=1):
-        want = CASE.moment_transfer(w, x)[0]
-        got = root_moment_component(axis, G_fit, f"gauge_{k}_M")
-        rel = abs(got - want) / abs(want)
-        print(f"gauge {k} (x = {x} m) {axis} w/w1 = {ratio:.4f}: |G| {abs(got):.6g} vs {abs(want):.6g}, phase "
-              f"{np.angle(got):.5f} vs {np.angle(want):.5f} rad, rel {rel:.2e}")
-        # the bounded parts of the budget within half the tolerance (the run long enough, the retained modes
-        # enough); the rest (FE discretisation <= 3.3e-4, hold < 3e-5 of rho A L^2 / 2) fits in the other half
-        bounded = 2 * transient_bound(w, window_start, x) + omitted_modes_part(w, x) + CASE.truncation_bound(w, x=x)[0]
-        assert bounded < 0.5 * DYN_RTOL * abs(want), f"gauge {k} at x = {x} m: bounded errors {bounded:.3g}"
-        assert rel <= DYN_RTOL, f"gauge {k} at x = {x} m"
+    for k, x, quantity in [(k, x, "M") for k, x in enumerate(DYN_GAUGES, start=1)] + [(1, 0.0, "V")]:
+        rel, bounded, what = compare_dynamic(G_fit, window_start, w, axis, k, x, quantity)
+        # the bounded parts within half the tolerance; the rest (FE discretisation <= 3.3e-4, hold < 3e-5 of the
+        # static value) in the other half
+        assert bounded < 0.5 * DYN_RTOL, f"{what}: bounded errors {bounded:.3g}"
+        assert rel <= DYN_RTOL, what
+
+
+@pytest.mark.study
+@needs_gauges
+@pytest.mark.xfail(strict=True, reason=(
+    "an interior gauge's shear deviates from the elastic shear -EI w_xxx by the share at the cut node of the modal "
+    "damping load on the element after the cut (c(x) = sum 2 zeta omega_n q_n' rho A phi_n; the deviation equals "
+    "int c N_1 ds over that element to 1-3 %): the gauges' end forces K_e q + M_e q'' + inertial load leave out the "
+    "element's damping forces (with C = M Phi diag(2 zeta omega) Phi^T M: M_e Phi_e diag(2 zeta omega) eta'). "
+    "3.2 % of the shear at mid-span at the 2nd resonance with 32 elements, half that with 64; nil at the clamp "
+    "(phi = 0 there) and O(h^2) smaller in the moments"))
+def test_interior_gauge_shear_matches_the_closed_form(shaken_sim):
+    """The shear force at a quarter and mid-span (Eq. 13) within 1 % at every frequency of RATIOS (shaken along y)."""
+    worst = (0.0, "")
+    for ratio in RATIOS.values():
+        G_fit, window_start, w = shaken(shaken_sim, "y", ratio)
+        for k, x in list(enumerate(DYN_GAUGES, start=1))[1:]:
+            rel, bounded, what = compare_dynamic(G_fit, window_start, w, "y", k, x, "V")
+            assert bounded < 0.5 * DYN_RTOL, f"{what}: bounded errors {bounded:.3g}"
+            worst = max(worst, (rel, what))
+    assert worst[0] <= DYN_RTOL, f"{worst[1]}: {worst[0]:.2e}"

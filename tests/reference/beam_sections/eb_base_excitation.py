@@ -62,11 +62,22 @@ Derivation
         G0(w, x) = -(rho A / beta^2) [U(beta x) + k_c S(beta x) + k_d T(beta x)],  beta = z / L,
         k_c = sinh z sin z / (1 + cosh z cos z),  k_d = -(cosh z sin z + cos z sinh z) / (1 + cosh z cos z);
     at x = 0 it is (9), at x = L zero (the free end).
+(13) Shear force at x, the same convention (the part beyond on the part before, along e_a): from the equilibrium of
+    the part beyond, V = int_x^L p ds and dM/dx = -V, so V(x) = -EI w_xxx(x) (elastic, like M) = a0 G_V(w, x) e^{i w t},
+        G_V(w, x) = -rho A (L - x) + sum_n v_n(x) (omega_n^2 H_n(w) - 1),
+        v_n(x) = EI phi_n^(3)(x) Gamma_n / omega_n^2 = rho A L 2 sigma_n psi_n'(beta_n x) / (beta_n L)^2,
+        psi_n'(u) = sinh u - sin u - sigma_n (cosh u + cos u)   (-2 sigma_n at the root),
+    quasi-statically -rho A a0 (L - x), the inertia load beyond x.  |psi_n'| <= 4.43 as |psi_n|, so the tail after N
+    terms is at most 11.83 rho A L [w^2 / (5 c^2 pi^5 (N - 0.51)^5) + 2 zeta w / (3 c pi^3 (N - 0.51)^3)]
+    (shear_truncation_bound; the terms fall like n^-6 and n^-4, slower than the moment's).
+(14) Check of (13), undamped: G0_V(w, x) = (rho A / beta) [T(beta x) + k_c V(beta x) + k_d S(beta x)],
+    V = (sinh - sin) / 2, k_c, k_d of (12); at x = L zero, quasi-statically -rho A (L - x).
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -79,13 +90,18 @@ CASE_CSV = HERE / "eb_base_excitation_case.csv"
 
 def cantilever_roots(n_terms: int) -> np.ndarray:
     """beta_n L, n = 1 .. n_terms: the roots of 1 + cos x cosh x = 0, i.e. cos x + 1 / cosh x = 0 (no overflow)."""
+    return np.array(_roots(int(n_terms)))
+
+
+@lru_cache(maxsize=32)
+def _roots(n_terms: int) -> tuple:
     roots = []
     for n in range(1, n_terms + 1):
         centre = (n - 0.5) * math.pi
         roots.append(brentq(lambda x: math.cos(x) + 2.0 * math.exp(-x) / (1.0 + math.exp(-2.0 * x)),
                             centre - 0.6, centre + 0.6,
                             xtol=1e-15, rtol=4 * np.finfo(float).eps))
-    return np.array(roots)
+    return tuple(roots)
 
 
 def mode_sigma(beta_L: np.ndarray) -> np.ndarray:
@@ -105,6 +121,17 @@ def mode_curvature_shape(beta_L: np.ndarray, xi: float) -> np.ndarray:
     ez = np.exp(-z)
     one_minus_sigma_eu = (np.sin(z) - np.cos(z) - ez) * np.exp(u - z) / ((1 - ez**2) / 2 + np.sin(z) * ez)
     return (one_minus_sigma_eu + (1 + sigma) * np.exp(-u)) / 2 + np.cos(u) - sigma * np.sin(u)
+
+
+def mode_shear_shape(beta_L: np.ndarray, xi: float) -> np.ndarray:
+    """psi_n'(beta_n L xi) of Eq. (13), overflow-free as mode_curvature_shape:
+    sinh u - sigma cosh u = ((1 - sigma) e^u - (1 + sigma) e^-u) / 2."""
+    z = np.asarray(beta_L, float)
+    u = z * xi
+    sigma = mode_sigma(z)
+    ez = np.exp(-z)
+    one_minus_sigma_eu = (np.sin(z) - np.cos(z) - ez) * np.exp(u - z) / ((1 - ez**2) / 2 + np.sin(z) * ez)
+    return (one_minus_sigma_eu - (1 + sigma) * np.exp(-u)) / 2 - np.sin(u) - sigma * np.cos(u)
 
 
 @dataclass(frozen=True)
@@ -187,6 +214,39 @@ class Cantilever:
         m = n_terms - 0.51
         return self.static_root_moment * 10.68 * (w**2 / (6 * c**2 * math.pi**7 * m**6)
                                                   + 2 * self.zeta * w / (4 * c * math.pi**5 * m**4))
+
+    def shear_transfer(self, w, x: float, n_terms: int = DEFAULT_TERMS) -> np.ndarray:
+        """G_V(w, x) (N per m/s^2, complex), Eq. (13): the shear force at distance x (m) from the clamp along the
+        acceleration's direction, the part beyond the cut on the part before it."""
+        w = np.atleast_1d(np.asarray(w, float))[:, None]
+        z = cantilever_roots(n_terms)
+        omega = self.natural_frequencies(n_terms)[None, :]
+        terms = self.rho * self.A * self.L * 2.0 * mode_sigma(z) * mode_shear_shape(z, x / self.L) / z**2
+        damping = 2j * self.zeta * omega * w
+        dynamic = (w**2 - damping) / (omega**2 - w**2 + damping)
+        return -self.rho * self.A * (self.L - x) + np.sum(terms[None, :] * dynamic, axis=1)
+
+    def undamped_shear_transfer(self, w, x: float) -> np.ndarray:
+        """G0_V(w, x) (N per m/s^2, real) of the undamped cantilever in closed form, Eq. (14)."""
+        w = np.atleast_1d(np.asarray(w, float))
+        beta = (self.rho * self.A * w**2 / (self.E * self.I)) ** 0.25
+        z, u = beta * self.L, beta * x
+        den = 1.0 + np.cosh(z) * np.cos(z)
+        k_c = np.sinh(z) * np.sin(z) / den
+        k_d = -(np.cosh(z) * np.sin(z) + np.cos(z) * np.sinh(z)) / den
+        S, T, V = (np.cosh(u) + np.cos(u)) / 2, (np.sinh(u) + np.sin(u)) / 2, (np.sinh(u) - np.sin(u)) / 2
+        return self.rho * self.A / beta * (T + k_c * V + k_d * S)
+
+    def shear_truncation_bound(self, w, n_terms: int = DEFAULT_TERMS) -> np.ndarray:
+        """Bound on |G_V - G_V,N| (N per m/s^2) of the shear series cut after n_terms, Eq. (13), any x."""
+        w = np.abs(np.atleast_1d(np.asarray(w, float)))
+        omega = self.natural_frequencies(n_terms + 1)
+        if n_terms < 3 or np.any(omega[-1] < 2 * w):
+            raise ValueError("shear_truncation_bound needs n_terms >= 3 and omega_{N+1} >= 2 w")
+        c = omega[0] / cantilever_roots(1)[0] ** 2
+        m = n_terms - 0.51
+        return self.rho * self.A * self.L * 11.83 * (w**2 / (5 * c**2 * math.pi**5 * m**5)
+                                                     + 2 * self.zeta * w / (3 * c * math.pi**3 * m**3))
 
     def root_reaction_transfer(self, w, n_terms: int = DEFAULT_TERMS) -> np.ndarray:
         """G_R(w) (N m per m/s^2, complex), Eq. (10): the clamp's d'Alembert reaction moment (inertia only), which
