@@ -3,7 +3,8 @@
 
     python3 tasks.py main    # set up .venv, then the main job: modal report, build the FMUs into
                              # dist/, run both papers' scenarios through fmpy (dist/*.png), export
-                             # the example bracket mesh as an FMU and run it in the wave converter,
+                             # the example bracket mesh as an FMU and run it in the wave converter
+                             # (its deformed shape: dist/bracket_animation.gif, dist/bracket_vtk/),
                              # and the wave converter on a flexible barge (dist/barge_vs_rigid.png)
     python3 tasks.py test    # set up .venv, then run the whole test suite
     python3 tasks.py verify  # the suite under each OpenBLAS kernel type this CPU can run, in random order
@@ -186,6 +187,10 @@ def main() -> int:
                      ["-m", "flexfmu", "cosim", "examples/bracket/OspSystemStructure.xml", "--t-end", "10",
                       "--out", "dist/bracket_system.csv"],
                      ["examples/bracket/plot_system.py", "dist/bracket_system.csv", "dist/bracket_system.png"],
+                     # its deformed shape over the run: the FMU's outputs q_1 .. q_n and its resources/shape.npz
+                     # (docs/animation.md)
+                     ["-m", "flexfmu", "animate", "dist/bracket_system.csv", "--fmu", "dist/Bracket.fmu",
+                      "--out", "dist/bracket_animation.gif", "--vtk", "dist/bracket_vtk"],
                      # the wave converter on a flexible barge (docs/wave_converter.md)
                      ["examples/flexible_barge/make_barge.py", "--out", "dist"],
                      ["examples/flexible_barge/compare.py", "--t-end", "10", "--fmu-dir", "dist",

@@ -39,7 +39,7 @@ EXAMPLES = (
     Example("reframe_plate.py", "The reframe paper's plate on ReframeBody.fmu", ("reframe_plate.png",),
             see="reframe.md"),
     Example("bracket", "Your own mesh as an FMU: a steel bracket on the floating platform",
-            ("bracket_modes.png", "bracket_system.png"),
+            ("bracket_modes.png", "bracket_system.png", "bracket_animation_still.png"),
             commands=(".venv/bin/flexfmu modal examples/bracket/bracket.json --clamp bolt_1,bolt_2 "
                       "--plot docs/figures/bracket_modes.png",
                       ".venv/bin/flexfmu export examples/bracket/bracket.json -o dist/Bracket.fmu "
@@ -47,7 +47,9 @@ EXAMPLES = (
                       ".venv/bin/flexfmu cosim examples/bracket/OspSystemStructure.xml --t-end 10 "
                       "--out dist/bracket_system.csv",
                       ".venv/bin/python examples/bracket/plot_system.py dist/bracket_system.csv "
-                      "dist/bracket_system.png"),
+                      "dist/bracket_system.png",
+                      ".venv/bin/flexfmu animate dist/bracket_system.csv --fmu dist/Bracket.fmu "
+                      "--out dist/bracket_animation.gif --vtk dist/bracket_vtk"),
             see="export.md"),
     Example("flexible_barge", "The wave converter on a flexible barge", ("barge_vs_rigid.png",),
             see="wave_converter.md"),

@@ -7,6 +7,7 @@ Several series (a model's modes) are drawn side by side, each scaled on its own 
 largest value (a mode shape's amplitude is arbitrary)."""
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,8 +118,8 @@ def animate(series, out, *, scale: float | None = None, fraction: float = DEFAUL
     cmap = plt.get_cmap("viridis")
     cols = min(3, len(panels))
     rows = -(-len(panels) // cols)
-    fig = plt.figure(figsize=(4.6 * cols + 1.2, 4.2 * rows + 0.8))
-    fig.subplots_adjust(left=0.0, right=0.86, bottom=0.02, top=0.86 if rows == 1 else 0.9, wspace=0.05,
+    fig = plt.figure(figsize=(4.6 * cols + 1.2, 4.2 * rows + 0.8) if cols > 1 else (6.4, 5.4))
+    fig.subplots_adjust(left=0.0, right=0.86, bottom=0.02, top=0.84 if rows == 1 else 0.9, wspace=0.05,
                         hspace=0.15)
     drawn, scales, largest, sizes = [], [], [], []
     colour_name, colour_max = "", 0.0
@@ -163,13 +164,17 @@ def animate(series, out, *, scale: float | None = None, fraction: float = DEFAUL
     mappable = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
     label = f"{colour_name} / largest" if relative else f"{colour_name} ({unit})"
     fig.colorbar(mappable, cax=fig.add_axes((0.88, 0.2, 0.018, 0.6)), label=label)
-    if scale is None:
-        how = f"displacement scaled so the largest is {fraction * 100:.3g} % of the body's size"
+    if len(panels) > 1:
+        how = (f"each drawn with its largest displacement at {fraction * 100:.3g} % of the body's size"
+               if scale is None else f"displacement x {scale:.4g}")
+    elif scale is None:
+        how = (f"displacement x {scales[0]:.4g}: the largest, {largest[0]:.3g} m, drawn at {fraction * 100:.3g} % of "
+               f"the body's {sizes[0]:.3g} m")
     else:
-        how = f"displacement x {scale:.4g}"
-    if len(panels) == 1:
-        how += f" (x {scales[0]:.4g}; largest |u| {largest[0]:.4g} m, body {sizes[0]:.4g} m)"
-    fig.suptitle(f"{title}\n{how}; colour: {label}" if title else f"{how}; colour: {label}", fontsize=9)
+        how = f"displacement x {scale:.4g} (the largest {largest[0]:.3g} m; the body {sizes[0]:.3g} m)"
+    lines = [title] if title else []
+    lines += textwrap.wrap(f"{how}; colour: {label}", width=int(14 * fig.get_figwidth()))
+    fig.suptitle("\n".join(lines), fontsize=9)
 
     def draw(k: int) -> None:
         for panel, shape, artist, text, factor, values, v_max, ax in drawn:
