@@ -226,6 +226,17 @@ def test_gif_is_written_with_every_frame(shape_path, tmp_path):
     assert fixed.scales == (3.0,)
 
 
+@pytest.mark.parametrize("cells", [{"line": [[0, 1], [1, 2], [2, 4]]}, {}], ids=["beam lines", "no cells"])
+def test_gif_of_lines_and_of_bare_nodes(tmp_path, cells):
+    Psi, _ = _shapes()
+    shape = ShapeFile(NODES, {k: np.asarray(v) for k, v in cells.items()}, Psi, None, NAMES, {"body": "b"})
+    series = deformed_series(shape, np.array([[0.0, 0.0, 0.0], [1.0, 0.5, 0.0]]))
+    assert series.von_mises is None and series.colour()[1] == "|u|"
+    done = animate([series, series], tmp_path / "lines.gif", dpi=30)
+    with Image.open(done.path) as gif:
+        assert gif.n_frames == 2
+
+
 def test_animation_refuses_unknown_formats_and_mp4_without_ffmpeg(shape_path, tmp_path):
     from matplotlib import animation
 

@@ -146,14 +146,16 @@ def animate(series, out, *, scale: float | None = None, fraction: float = DEFAUL
             ax.locator_params(nbins=4)
         else:                    # side by side: the shapes matter, not the coordinates (and text is most of the time)
             ax.set_axis_off()
+        # made with the undeformed body: matplotlib's 3-D collections autoscale on what they hold when added
         if shape.triangles.shape[0]:
-            artist = Poly3DCollection([], linewidths=0.15, edgecolors=(0.0, 0.0, 0.0, 0.35))
+            artist = Poly3DCollection(panel.nodes[shape.triangles], linewidths=0.15,
+                                      edgecolors=(0.0, 0.0, 0.0, 0.35))
         elif shape.lines.shape[0]:
-            artist = Line3DCollection([], linewidths=2.0)
+            artist = Line3DCollection(panel.nodes[shape.lines], linewidths=2.0)
         else:
-            artist = ax.scatter([], [], [], s=6, depthshade=False)
+            artist = ax.scatter(*panel.nodes[shape.points].T, s=6, depthshade=False)
         if shape.triangles.shape[0] or shape.lines.shape[0]:
-            ax.add_collection3d(artist)
+            ax.add_collection3d(artist, autolim=False)
         text = ax.set_title("", fontsize=9)
         drawn.append((panel, shape, artist, text, factor, values, v_max, ax))
         scales.append(factor)
