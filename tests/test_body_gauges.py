@@ -386,7 +386,7 @@ def test_the_native_fmu_has_the_python_fmus_gauges(exported, tmp_path):
         native = export_native(body, tmp_path / "BracketNative.fmu")
     except CompilerError as exc:                                       # pragma: no cover - no C compiler
         pytest.skip(f"no C compiler: {exc}")
-    h, n_steps = 5e-5, 200
+    h, n_steps = 5e-5, 100
     times = np.arange(n_steps + 1) * h
     signal = np.zeros(n_steps + 1, dtype=[("time", float), ("tip.F_x", float), ("tip.F_z", float)])
     signal["time"] = times

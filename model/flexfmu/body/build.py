@@ -107,8 +107,10 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
         raise ParameterError("damping_ratio", f"{shown(damping_ratio)}", "0 <= damping_ratio < 1")
     gauges = [g if not isinstance(g, str) else gauge_from_text(g) for g in (gauges or ())]
     if gauges and clamp is None:
-        raise ParameterError("gauge", "a free body: its gauges would need the stress of its rigid-body motion's "
-                             "inertia loads (inertia relief), which flexfmu does not evaluate",
+        # the stress would be S eta as for a clamped body, but a free body's outputs come from the reframe kernels
+        # (Python and C alike), which have no rows for them
+        raise ParameterError("gauge", "a free body: gauges are rows of a clamped body's linear output maps; a free "
+                             "body's outputs come from the reframe kernels, which carry no gauges",
                              "a clamped body (--clamp SET), or no --gauge")
     checked = validate_structure(structure)
     # a model without cells, an unknown set, a point outside the mesh: refused before the reduction's work

@@ -39,7 +39,7 @@ from flexfmu.body.engines import _frame_global  # noqa: F401  (its former home; 
 from flexfmu.body.variables import (INITIAL_MOTION, TOLERANCE_RANGE, ClampedBodyConfig, FlexBodyConfig,  # noqa: F401
                                     check_config)
 from flexfmu.core.checks import finite_input, shown
-from flexfmu.core.stress import evaluate_derived
+from flexfmu.core.stress import evaluate_derived, von_mises
 from flexfmu.errors import NonFiniteError, ParameterError
 
 __all__ = ["FlexBodyConfig", "ClampedBodyConfig", "TOLERANCE_RANGE", "FlexBodySimulator", "config_class",
@@ -88,6 +88,13 @@ class FlexBodySimulator:
         #: outputs computed from other outputs after the linear ones (flexfmu.core.stress.DerivedStress): the gauges'
         #: von Mises; the native extraction leaves them out of its linear fit
         self.derived_outputs = body.derived_outputs()
+        # every derived output a tensor's von Mises (a body's gauges): their places, for one vectorised von_mises
+        # per output vector (what evaluate_derived computes, by the same function, without its per-call lookups)
+        index = {name: k for k, name in enumerate(self.output_names)}
+        self._von_mises = None
+        if self.derived_outputs and all(d.kind == "tensor_von_mises" for d in self.derived_outputs):
+            self._von_mises = (np.array([index[d.output] for d in self.derived_outputs]),
+                               np.array([[index[s] for s in d.sources] for d in self.derived_outputs]))
         self.engine = body.engine_class(body, config, zeta, self.input_names)
         self.inputs = dict.fromkeys(self.input_names, 0.0)
         self._u = np.zeros(len(self.input_names))
@@ -165,7 +172,9 @@ class FlexBodySimulator:
         """All outputs in output_names order (max_elastic_displacement = -1 when include_deferred is False)."""
         with np.errstate(all="ignore"):
             y = self.engine.output_vector(include_deferred)
-            if self.derived_outputs:
+            if self._von_mises is not None:
+                y[self._von_mises[0]] = von_mises(y[self._von_mises[1]])
+            elif self.derived_outputs:
                 evaluate_derived(self.derived_outputs, self.output_names, y)
         # y.y is finite when y is (unless |y| > 1e154): the element-wise check only then
         if not y.dot(y) < math.inf and not np.all(np.isfinite(y)):

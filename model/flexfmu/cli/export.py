@@ -75,7 +75,9 @@ def add_parser(sub) -> None:
                     "of a clamped body: --interface-type): a free body (reframe integrator) or, with --clamp "
                     "or constrained DOFs in the file, a body clamped on a moving base; per interface NAME the inputs "
                     "NAME.F_x/y/z (and NAME.M_x/y/z) and the outputs NAME.pos_*/vel_*/acc_*, plus the body outputs "
-                    "and f_1 ... f_6. Lengths and coordinates in m (after --length-unit scaling). See docs/export.md.")
+                    "and f_1 ... f_6; a clamped body also its shape coordinates q_1 ... q_m and per --gauge NAME its "
+                    "stress, von Mises and strain outputs. Lengths and coordinates in m (after --length-unit "
+                    "scaling). See docs/export.md.")
     export.add_argument("model", metavar="MODEL", help="model file or spec (mesh, model .json, .bdf, .full, .npz, "
                                                        "beam:<scene>, paper_plate)")
     export.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.fmu",
