@@ -1,16 +1,20 @@
 """The derived outputs of the native runtime (csrc/derived_stress.c, the LTI kind's ``lti.derived.*`` entries,
-flexfmu.native.lti's extraction) against flexfmu.core.stress, the one Python home of the formulas.
+flexfmu.native.lti's extraction) against flexfmu.core.stress, the one Python home of the formulas, and the gauges of
+FFRBeam and of an exported clamped body, native against Python.
 
 - The C formulas equal core/stress.py bit for bit on the same inputs (the same operations in the same order,
   compiled without FMA contraction): von Mises of a tensor, a circle's, a tube's and a rectangle's largest axial and
   von Mises stresses, at random section forces and at zeros.
-- A stand-in model (FFRBeam's linear outputs, some of its outputs re-declared as derived from others: the extraction
-  sees a probe whose outputs are evaluate_derived of the simulator's) is extracted with its derived rows out of the
-  linear fit, checked through evaluate_derived, and refused when the simulator's derived values are not the formula's.
-- The stand-in built as a native FMU: its derived outputs over a run with loads and base motion that move equal the
-  Python simulator's (with evaluate_derived) to 1e-10 of each output's scale; a derived output read alone brings its
-  sources; its directional derivatives equal central differences; bad model-file entries are refused at
-  instantiation naming the entry and its output; a model file without the entries loads as before.
+- A stand-in model (FFRBeam's linear outputs, three of them re-declared as derived from others: the extraction sees a
+  probe whose outputs are evaluate_derived of the simulator's) is extracted with its derived rows out of the linear
+  fit, checked through evaluate_derived, and refused when the simulator's values are not the declared formula's.
+- FFRBeam with three gauges (``flexfmu build --runtime native --set gauge_K_s=...``) and examples/bracket with two
+  (a node set's, a point's; export_native's steps): every output, the gauges' section forces, sigma_max, von_mises,
+  stress and strain components among them, over a run with loads and base motion that move, equals the Python
+  simulator's to RTOL of each output's scale (the derived ones read first, alone: their sources come with them);
+  their directional derivatives equal central differences; FMI 3.0 gives FMI 2.0's gauges bit for bit.
+- Bad derived entries in the model file are refused at instantiation naming the entry and its output; a model file
+  without them loads.
 """
 from __future__ import annotations
 
