@@ -89,6 +89,7 @@ def _header(path, **fields):
 @pytest.mark.parametrize("case, words", [
     ("newer version", ["version 2", "newer", "update flexfmu", "allowed: version 1"]),
     ("older version", ["version 0", "re-export"]),
+    ("boolean version", ["version True"]),
     ("other format", ["format 'something-else'", SHAPE_FORMAT]),
     ("no header", ["no header", "Psi"]),
     ("missing Psi", ["lacks Psi"]),
@@ -106,6 +107,8 @@ def test_shape_file_refusals(shape_path, tmp_path, case, words):
         _rewrite(shape_path, bad, header=_header(shape_path, version=2))
     elif case == "older version":
         _rewrite(shape_path, bad, header=_header(shape_path, version=0))
+    elif case == "boolean version":
+        _rewrite(shape_path, bad, header=_header(shape_path, version=True))
     elif case == "other format":
         _rewrite(shape_path, bad, header=_header(shape_path, format="something-else"))
     elif case == "no header":

@@ -151,8 +151,8 @@ def read_shape_file(path, *, label: str | None = None) -> ShapeFile:
     if header.get("format") != SHAPE_FORMAT:
         raise ModelFileError(name, f"format {header.get('format')!r}", f"{SHAPE_FORMAT!r}")
     version = header.get("version")
-    if version != SHAPE_VERSION:
-        newer = isinstance(version, int) and version > SHAPE_VERSION
+    if type(version) is not int or version != SHAPE_VERSION:          # (True == 1 in Python: not a version)
+        newer = type(version) is int and version > SHAPE_VERSION
         raise ModelFileError(name, f"{SHAPE_FORMAT} version {version!r}"
                              + (", newer than this flexfmu reads: update flexfmu" if newer else
                                 ": re-export the FMU with this flexfmu"), f"version {SHAPE_VERSION}")

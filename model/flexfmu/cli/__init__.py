@@ -1,9 +1,9 @@
 """Command-line interface: a thin shell over library functions.
 
     flexfmu modal SCENE [--boundary B] [--elements-per-segment N] [--modes K] [--json] [--plot PNG]
-                  [--max-dofs N]
+                  [--max-dofs N] [--animate [OUT.gif]] [--vtk DIR]
     flexfmu modal MODEL [--material E,NU,RHO] [--length-unit U] [--nodes FILE] [--clamp SPEC] [--modes K]
-                  [--json] [--plot PNG] [--max-dofs N]
+                  [--json] [--plot PNG] [--max-dofs N] [--animate [OUT.gif]] [--vtk DIR]
     flexfmu export MODEL -o OUT.fmu [--material E,NU,RHO] [--nodes FILE] [--clamp SPEC]
                   [--interface NAME=X,Y,Z]... [--modes N | --f-max HZ [--tolerance TOL]] [--damping ZETA]
                   [--runtime python|native]

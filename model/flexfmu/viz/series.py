@@ -66,7 +66,12 @@ def deformed_series(shape: ShapeFile, q, t=None, *, labels=()) -> DeformedSeries
         raise ParameterError("t", f"{t.shape[0]} times for {q.shape[0]} frames", "one finite time per frame")
     # (T, n) x (N, 3, n) -> (T, N, 3): one matrix product, u = Psi q for every frame
     displacement = np.einsum("tk,ndk->tnd", q, shape.Psi)
-    stress = None if shape.stress is None else von_mises(np.einsum("tk,nck->tnc", q, shape.stress))
+    stress = None
+    if shape.stress is not None:             # by blocks of frames: the (frames, N, 6) stresses are never all held
+        stress = np.empty(displacement.shape[:2])
+        block = max(1, 2**22 // (6 * shape.nodes.shape[0]))
+        for start in range(0, q.shape[0], block):
+            stress[start:start + block] = von_mises(np.einsum("tk,nck->tnc", q[start:start + block], shape.stress))
     return DeformedSeries(t, shape.nodes, shape.cells, displacement, stress, shape.body, tuple(labels))
 
 
