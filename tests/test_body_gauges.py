@@ -399,3 +399,74 @@ def test_the_native_fmu_has_the_python_fmus_gauges(exported, tmp_path):
     for name in names:
         scale = np.abs(python[name]).max()
         assert scale > 0 and np.abs(ours[name] - python[name]).max() <= 1e-10 * scale, name
+
+
+# ---------------------------------------------------------------------------------------------- every cell type
+def _box_structure(cell_type, distort, rng):
+    """A box 0.3 x 0.2 x 0.1 m of ``cell_type`` cells (tests/test_importers.box_mesh), its inner nodes moved by up
+    to 0.2 of the smallest spacing when ``distort`` (curved quadratic cells), read as the importer reads a .vtu."""
+    import meshio
+    from test_importers import box_mesh
+    points, cells = box_mesh(cell_type, (3, 2, 2), (0.3, 0.2, 0.1))
+    if distort:
+        inner = np.all((points > 1e-9) & (points < np.array([0.3, 0.2, 0.1]) - 1e-9), axis=1)
+        points = points + inner[:, None] * rng.uniform(-0.2, 0.2, points.shape) * 0.025
+    folder = Path(__import__("tempfile").mkdtemp())
+    meshio.write(folder / "box.vtu", meshio.Mesh(points, [(cell_type, cells)]))
+    return load_structure(folder / "box.vtu", material={"E": E_BAR, "nu": NU_BAR, "rho": RHO_BAR})
+
+
+@pytest.mark.parametrize("cell_type", ["tetra", "tetra10", "hexahedron", "hexahedron20", "hexahedron27"])
+def test_every_cell_type_gives_the_exact_strain_of_the_fields_it_represents(cell_type):
+    """The strain of displacement fields the cells interpolate exactly: linear fields on a distorted mesh (every
+    isoparametric cell, curved or not, reproduces them), and for the quadratic cells a quadratic field on the
+    straight mesh (its strain linear in x): at random points (their cells found, Newton's method inside) and as
+    averaged nodal values (every cell's value at a node exact, so the mean too).  A node matched to the wrong
+    Lagrange function, or a wrong Jacobian, breaks these far beyond the rounding (~1e-12 here)."""
+    from flexfmu.body.stress import SolidStress
+    rng = np.random.default_rng(7)
+    quadratic = cell_type in ("tetra10", "hexahedron20", "hexahedron27")
+    A = rng.standard_normal((3, 3)) * 1e-3
+    B = rng.standard_normal((3, 3, 3)) * 1e-3 if quadratic else np.zeros((3, 3, 3))
+    B = 0.5 * (B + B.transpose(0, 2, 1))                         # u_a = A_ab x_b + B_abc x_b x_c
+
+    def strain(x):
+        grad = A + 2 * np.einsum("abc,c->ab", B, x)
+        g = 0.5 * (grad + grad.T)
+        return np.array([g[0, 0], g[1, 1], g[2, 2], g[0, 1], g[1, 2], g[0, 2]])
+
+    for structure, field in ((_box_structure(cell_type, True, rng), "linear"),
+                             (_box_structure(cell_type, False, rng), "quadratic")):
+        if field == "quadratic" and not quadratic:
+            continue
+        b = B if field == "quadratic" else np.zeros_like(B)
+        x = structure.nodes
+        U = (x @ A.T + np.einsum("abc,nb,nc->na", b, x, x)).reshape(-1, 1)
+        evaluator = SolidStress(structure)
+        for point in rng.uniform([0.01, 0.01, 0.01], [0.29, 0.19, 0.09], (5, 3)):
+            location = evaluator.locate(point)
+            assert location is not None
+            expected = strain(point) if field == "quadratic" else strain(np.zeros(3))
+            assert np.allclose(evaluator.strain_at(location, U)[:, 0], expected, rtol=0, atol=1e-12)
+        nodal = evaluator.nodal_strain(U)[:, :, 0]
+        expected = np.array([strain(p) for p in x]) if field == "quadratic" else strain(np.zeros(3))[None]
+        assert np.abs(nodal - expected).max() < 1e-12
+    # the stress of a strain: Hooke's law (sigma = lambda tr I + 2 mu eps) checked against its inverse
+    eps = rng.standard_normal((6, 1)) * 1e-3
+    sigma = evaluator.stress(eps)[:, 0]
+    back = ((1 + NU_BAR) * sigma - NU_BAR * np.r_[np.full(3, sigma[:3].sum()), np.zeros(3)]) / E_BAR
+    assert np.allclose(back, eps[:, 0], rtol=1e-12, atol=0)
+
+
+def test_structure_cells_round_trip_through_npz(tmp_path):
+    from flexfmu.core.io import load_structure as load_npz, save_structure
+    from flexfmu.errors import ParameterError
+    structure = _box_structure("hexahedron20", False, np.random.default_rng(1))
+    back = load_npz(save_structure(tmp_path / "box.npz", structure))
+    assert list(back.cells) == ["hexahedron20"] and np.array_equal(back.cells["hexahedron20"],
+                                                                  structure.cells["hexahedron20"])
+    parts = dict(np.load(tmp_path / "box.npz"))
+    parts["cells_hexahedron20"] = np.zeros((2, 8), int)
+    np.savez(tmp_path / "bad.npz", **parts)
+    with pytest.raises(ParameterError, match="cells_hexahedron20.*\\(n, 20\\) integer node indices"):
+        load_npz(tmp_path / "bad.npz")
