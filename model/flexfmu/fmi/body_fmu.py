@@ -107,12 +107,16 @@ def documentation_html(name: str, body) -> str:
     rows = "\n".join(f"<tr><td><code>{html.escape(v)}</code></td><td>{html.escape(info[v][0])}</td>"
                      f"<td>{html.escape(info[v][1])}</td></tr>" for v in info)
     summary = "\n".join(f"<li>{html.escape(line)}</li>" for line in body.describe())
+    shape = ("" if not getattr(body, "shape_data", None) else
+             "\n<p><code>resources/shape.npz</code> holds the undeformed nodes (m, body frame), the cells, the shapes "
+             "Psi and the averaged nodal stress shapes S of the coordinates q_1 ... q_n (outputs): the displacement "
+             "of every node is u = Psi q and its stress sigma = S q (<code>flexfmu animate</code> draws them).</p>")
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(name)}</title></head>
 <body>
 <h1>{html.escape(name)}</h1>
 <p>A flexible body exported by flexfmu (FMI 2.0 co-simulation). The reduced model is
-<code>resources/{BODY_FILE}</code>; the FMU needs no other file.</p>
+<code>resources/{BODY_FILE}</code>; the FMU needs no other file.</p>{shape}
 <h2>Model, source and reduction</h2>
 <ul>
 {summary}
