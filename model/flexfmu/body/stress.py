@@ -147,9 +147,9 @@ class SolidStress:
     def __init__(self, structure, what: str = "gauge"):
         cells = getattr(structure, "cells", None) or {}
         if int(structure.dofs_per_node) != 3 or not cells:
-            source = structure.provenance.format or "this"
-            raise ParameterError(what, f"{structure.name or 'the model'} has no volume cells (a {source} model "
-                                 "read as matrices or a beam), so no stress to evaluate",
+            source = f"format {structure.provenance.format}" if structure.provenance.format else "matrices only"
+            raise ParameterError(what, f"{structure.name or 'the model'} has no volume cells ({source}: a model "
+                                 "read as matrices, or a beam), so no stress to evaluate",
                                  f"a solid model with its cells: {GAUGE_SOURCES}")
         unknown = sorted(set(cells) - set(CELL_ELEMENTS))
         if unknown:
