@@ -6,12 +6,14 @@ free-body sums of the part beyond the cut (the rod's polyline, not the mesh).  R
 h leaves the transient times e^(-zeta omega_1 h) (modal damping zeta on every mode, omega_1 the lowest), asserted
 below 1e-30: nothing of it is left in double precision.
 
-Tolerance of the static checks, 1e-9 relative to the load's size: the section forces are the element's end forces
-K_e q_e (+ the inertial terms), a cancellation of terms of size |K_e| |q_e| ~ the load times the element's
-slenderness squared ((L_e / r)^2 ~ 60 here), whose rounding (and that of the static solution q it amplifies through
-the stiffness' condition) stays below 1e-12 of the load for this 6-DOF-per-node, 8-element-per-segment model; 1e-9
-leaves three orders for other BLAS orders while any modelling error (a missing inertial term, a wrong sign or frame,
-the static correction left out: 1e-3 .. 1) is far above it.
+Tolerance of the static checks: 1e-9 relative to the load's size, or the rounding bound of the end forces where that
+is larger.  The section forces are the element's end forces D K_e q_e (+ the inertial terms), a cancellation of
+terms of size |D| |K_e| |q_e| (up to 2e5 x the load here: a far element's axial stiffness EA / L_e times its mostly
+rigid displacement); q = Phi eta + R z is within gamma_(m+18) (|Phi| |eta| + |R| |z|) of its value (eta within as
+much of the static solution: exact steps, the transient gone) and the product adds gamma_12 of the same terms, so
+|error| <= 2 gamma_(m+40) |D| (|K_e| (|Phi_e| |eta| + |R_e| |z|) + |S_bar_e| |a0|) (_rounding).  Any modelling
+error (a missing inertial term, a wrong sign or frame, the static correction left out: 1e-3 .. 1 of the load) is far
+above both.
 """
 from __future__ import annotations
 
@@ -86,6 +88,14 @@ def _section_axes(sim, s: float) -> np.ndarray:
     return R
 
 
+def _rounding(sim, k: int) -> np.ndarray:
+    """The rounding bound of gauge k's six section forces at rest (the module docstring)."""
+    dyn, g = sim.dynamics, sim.dynamics.gauges.sections[k - 1]
+    u = np.abs(np.array([sim.inputs[n] for n in INPUT_NAMES[:9]]))
+    q = np.abs(dyn.Phi[g.dofs]) @ np.abs(sim.state.eta) + np.abs(sim.static_correction.residual[g.dofs, :9]) @ u
+    return 2 * gamma(dyn.m + 40) * (np.abs(g.select) @ (np.abs(g.K) @ q + np.abs(g.S_bar_T) @ u[6:9]))
+
+
 def _gauge(out: dict, k: int) -> np.ndarray:
     return np.array([out[f"gauge_{k}_{q}"] for q in FORCES])
 
@@ -101,14 +111,18 @@ def test_tip_force_at_rest_gives_the_free_body_section_forces():
     for k, s in enumerate(gauges, start=1):
         R = _section_axes(sim, s)
         want_F, want_M = R.T @ F, R.T @ np.cross(r_tip - _point(s), F)
-        got = _gauge(out, k)
-        assert np.max(np.abs(got[:3] - want_F)) <= STATIC_RTOL * np.linalg.norm(F), (s, got[:3], want_F)
-        assert np.max(np.abs(got[3:] - want_M)) <= STATIC_RTOL * np.linalg.norm(F) * 0.45, (s, got[3:], want_M)
-    assert np.isclose(_gauge(out, 2)[0], F[0], rtol=0, atol=STATIC_RTOL * np.linalg.norm(F))   # after the corner
+        got, rounding = _gauge(out, k), _rounding(sim, k)
+        assert np.all(np.abs(got[:3] - want_F) <= np.maximum(STATIC_RTOL * np.linalg.norm(F), rounding[:3])), (
+            s, got[:3], want_F)
+        assert np.all(np.abs(got[3:] - want_M) <= np.maximum(STATIC_RTOL * np.linalg.norm(F) * 0.45,
+                                                             rounding[3:])), (s, got[3:], want_M)
+    assert np.isclose(_gauge(out, 2)[0], F[0], rtol=0, atol=max(STATIC_RTOL * np.linalg.norm(F),
+                                                                 _rounding(sim, 2)[0]))   # after the corner: F_x
     # the last point: the part beyond is the loaded point itself
     sim = _at_rest(F_x=F[0], F_y=F[1], F_z=F[2], gauge_3_s=0.45)
     got, R = _gauge(sim.outputs(), 3), _section_axes(sim, 0.45)
-    assert np.max(np.abs(got - np.r_[R.T @ F, 0, 0, 0])) <= STATIC_RTOL * np.linalg.norm(F)
+    assert np.all(np.abs(got - np.r_[R.T @ F, 0, 0, 0]) <= np.maximum(STATIC_RTOL * np.linalg.norm(F),
+                                                                       _rounding(sim, 3)))
 
 
 def test_tip_moment_at_rest():
@@ -117,9 +131,9 @@ def test_tip_moment_at_rest():
     sim = _at_rest(M_x=M[0], M_y=M[1], M_z=M[2], gauge_1_s=0.0, gauge_2_s=0.3)
     out = sim.outputs()
     for k, s in ((1, 0.0), (2, 0.3)):
-        R, got = _section_axes(sim, s), _gauge(out, k)
-        assert np.max(np.abs(got[:3])) <= STATIC_RTOL * np.linalg.norm(M) / 0.45
-        assert np.max(np.abs(got[3:] - R.T @ M)) <= STATIC_RTOL * np.linalg.norm(M)
+        R, got, rounding = _section_axes(sim, s), _gauge(out, k), _rounding(sim, k)
+        assert np.all(np.abs(got[:3]) <= np.maximum(STATIC_RTOL * np.linalg.norm(M) / 0.45, rounding[:3]))
+        assert np.all(np.abs(got[3:] - R.T @ M) <= np.maximum(STATIC_RTOL * np.linalg.norm(M), rounding[3:]))
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])
@@ -136,9 +150,11 @@ def test_base_acceleration_at_rest_is_the_inertial_load_beyond_the_cut(axis):
         pieces = _beyond(s)
         force = RHO * AREA * sum(L for L, _ in pieces) * a0
         moment = sum(np.cross(c - _point(s), RHO * AREA * L * a0) for L, c in pieces)
-        R, got = _section_axes(sim, s), _gauge(out, k)
-        assert np.max(np.abs(got[:3] + R.T @ force)) <= STATIC_RTOL * size, (s, got[:3], -R.T @ force)
-        assert np.max(np.abs(got[3:] + R.T @ moment)) <= STATIC_RTOL * size * 0.45, (s, got[3:], -R.T @ moment)
+        R, got, rounding = _section_axes(sim, s), _gauge(out, k), _rounding(sim, k)
+        assert np.all(np.abs(got[:3] + R.T @ force) <= np.maximum(STATIC_RTOL * size, rounding[:3])), (
+            s, got[:3], -R.T @ force)
+        assert np.all(np.abs(got[3:] + R.T @ moment) <= np.maximum(STATIC_RTOL * size * 0.45, rounding[3:])), (
+            s, got[3:], -R.T @ moment)
         assert np.linalg.norm(force) > 1e-3 * size or s > 0.4       # a real load at each of these sections
 
 
