@@ -221,7 +221,8 @@ def test_gauge_on_a_generic_section_is_refused(tmp_path):
 def test_fast_maps_equal_term_by_term_formulas():
     """The gauges' rows of the output maps (with the static correction) against reference_outputs' element
     formulas (flexfmu.ffr.gauges.GaugeSection.nodal_forces) at random states, loads and base motion: each within
-    2 gamma_ops of the size of the terms, |D| (|K_e| (|Phi_e| |eta| + |R_e| |z|) + |M_e| |Phi_e| |eta_ddot terms| +
+    2 gamma_ops of the size of the terms, |D| (|K_e| (|Phi_e| |eta| + |R_e| |z|) + |M_e| |Phi_e| (|eta_ddot terms| +
+    2 zeta omega |eta_dot|) +
     |S_bar_e| |a0| + |X| (|P| + |M_ab| |Phi_e| |eta|) + 2 |W| |M_ab| |Phi_e| |eta_dot|); the stresses within the
     propagated difference (|dN| / A + |dM| c / I, + a few roundings)."""
     sim = FFRBeamSimulator(FFRBeamConfig(static_correction=1, gauge_1_s=0.0, gauge_2_s=0.16, gauge_3_s=0.45))
@@ -247,7 +248,8 @@ def test_fast_maps_equal_term_by_term_formulas():
                  + np.einsum("ab,abk->k", absX, np.abs(dyn.P_hat)))
         for k, g in enumerate(dyn.gauges.sections, start=1):
             Phi_e, aD = np.abs(dyn.Phi[g.dofs]), np.abs(g.select)
-            terms = (np.abs(g.K) @ (Phi_e @ eta + np.abs(corr.residual[g.dofs]) @ z) + np.abs(g.M) @ Phi_e @ accel
+            terms = (np.abs(g.K) @ (Phi_e @ eta + np.abs(corr.residual[g.dofs]) @ z)
+                     + np.abs(g.M) @ Phi_e @ (accel + np.abs(dyn.damping) * eta_dot)
                      + np.abs(g.S_bar_T) @ np.abs(u[6:9])
                      + np.einsum("ab,abk->k", absX, np.abs(g.P))
                      + np.einsum("ab,abkl,l->k", absX, np.abs(g.M_ab), Phi_e @ eta)

@@ -419,7 +419,7 @@ class FFRBeamDynamics:
                   np.hstack([_skew(self.load.undeformed_body), I3, -_skew(ints.first_moment)]) - L_a @ Fm]
         y0 = np.concatenate([np.zeros(6), X @ u0 - Sm @ p, np.zeros(3), -(X @ ints.first_moment - Sb @ p),
                              -(ints.J0 @ al + _cross(w, ints.J0 @ w) - L_a @ p)])
-        gauge_x, gauge_u, gauge_y0 = self.gauges.output_rows(Ax, Fm, p, W, X)
+        gauge_x, gauge_u, gauge_y0 = self.gauges.output_rows(Ax, Fm, p, W, X, self.damping)
         C = np.ascontiguousarray(np.hstack([np.vstack(rows_x + [gauge_x]), np.vstack(rows_u + [gauge_u])]))
         y0 = np.concatenate([y0, gauge_y0])                                             # C: (36, 2m + 9)
         if h is None:

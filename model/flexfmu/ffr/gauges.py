@@ -10,10 +10,15 @@ They come from the end forces of that element.  With the element's consistent ma
 vector q_e (body frame, 12 DOFs), the forces its two nodes exert on it are (flexfmu.ffr.dynamics Eq. (*) restricted
 to the element: int_e rho S^T a dV with a = a0 + X (u0 + S q) + 2 W S q_dot + S q_ddot)
 
-    g_e = K_e q_e + M_e q_ddot_e + S_bar_e^T a0 + sum_ab X_ab (P_ab,e + M_ab,e q_e) + 2 sum_ab W_ab M_ab,e q_dot_e,
+    g_e = K_e q_e + M_e q_ddot_e + M_e q_damp_e + S_bar_e^T a0 + sum_ab X_ab (P_ab,e + M_ab,e q_e)
+          + 2 sum_ab W_ab M_ab,e q_dot_e,
 
 W = [omega]x, X = [alpha]x + W^2, with the element's own inertia shape integrals (S_bar_e, P_ab,e, M_ab,e as
-flexfmu.ffr.dynamics.inertia_integrals forms them, without the point masses, which sit on nodes).  The section
+flexfmu.ffr.dynamics.inertia_integrals forms them, without the point masses, which sit on nodes).  q_damp =
+Phi diag(2 zeta omega) eta_dot carries the modal damping: C = M Phi diag(2 zeta omega) Phi^T M is the damping matrix
+that gives the retained modes their damping (Phi^T C Phi = diag(2 zeta omega)), a distributed force whose share on
+the element is M_e q_damp_e; without it an interior section's forces would miss the damping load on the element
+after the cut (a few % of the shear near a resonance; nothing at rest).  The section
 after node 1 is then the cut just after the node: the part beyond exerts -g_1 (element axes); at the last point the
 cut is just before it and the part beyond (the point with its load and point mass) exerts +g_2.  External loads act
 on nodes, never inside an element, so none is subtracted: a load at the gauge's own node is on the part before the
@@ -23,8 +28,8 @@ Modal and static parts: q = Phi eta + q_res with q_res = R [F, M, a0, X_ab] the 
 modes (the static correction, flexfmu.sizing.beam, when on), q_dot = Phi eta_dot, q_ddot = Phi eta_ddot with
 eta_ddot from the modal equation.  The static correction enters through K_e only (it is computed from K, so its
 X M_ab and inertia terms are not part of it), which makes a quasi-static load's section forces those of the full
-model: at rest K q = f exactly, and g_e the element's exact end forces.  The modal damping is not an element force
-and is left out; so, with geometric_stiffening, is the geometric stiffness of the prestress (second order).
+model: at rest K q = f exactly, and g_e the element's exact end forces.  With geometric_stiffening the geometric
+stiffness of the prestress is left out of g_e (second order).
 
 The rows are affine in x = [eta; eta_dot] and u = [F, M, a0] for a held base rotation (of degree <= 2 in omega,
 alpha), so they are rows of FFRBeamDynamics.fast_maps; the largest stresses of a section are nonlinear and computed
@@ -64,11 +69,12 @@ class GaugeSection:
     P: np.ndarray
     M_ab: np.ndarray
 
-    def nodal_forces(self, q, q_modal, q_dot, q_ddot, a0, W, X) -> np.ndarray:
+    def nodal_forces(self, q, q_modal, q_dot, q_ddot, q_damp, a0, W, X) -> np.ndarray:
         """g_e (12,), body frame, term by term (the module's formula) from the nodal vectors on all DOFs: q with the
-        static correction, q_modal = Phi eta (the inertial terms), q_dot, q_ddot."""
+        static correction, q_modal = Phi eta (the inertial terms), q_dot, q_ddot, q_damp = Phi diag(2 zeta omega)
+        eta_dot."""
         d = self.dofs
-        g = self.K @ q[d] + self.M @ q_ddot[d] + self.S_bar_T @ a0
+        g = self.K @ q[d] + self.M @ q_ddot[d] + self.M @ q_damp[d] + self.S_bar_T @ a0
         for a in range(3):
             for b in range(3):
                 g = g + X[a, b] * (self.P[a, b] + self.M_ab[a, b] @ q_modal[d])
@@ -130,15 +136,16 @@ class GaugeSections:
             self.P_rows[:, r] = (g.P @ D.T).reshape(9, 6)
             self.H_rows[:, r] = np.einsum("ik,abkl,lj->abij", D, g.M_ab, Phi_e).reshape(9, 6, m)
 
-    def output_rows(self, Ax: np.ndarray, Fm: np.ndarray, p: np.ndarray, W: np.ndarray, X: np.ndarray):
+    def output_rows(self, Ax: np.ndarray, Fm: np.ndarray, p: np.ndarray, W: np.ndarray, X: np.ndarray,
+                    damping: np.ndarray):
         """(Cx (18, 2m), Cu (18, 9), y0 (18,)) of the section forces for the held base rotation (W, X) from the
-        modal equation eta_ddot = Ax x + Fm u - p (FFRBeamDynamics.fast_maps' terms); without the static
-        correction (:meth:`correction_rows`)."""
+        modal equation eta_ddot = Ax x + Fm u - p (FFRBeamDynamics.fast_maps' terms) and the modal damping
+        ``damping`` = 2 zeta omega (m,); without the static correction (:meth:`correction_rows`)."""
         m = self.K_rows.shape[1]
         if not self.present:
             return np.zeros((N_GAUGE_ROWS, 2 * m)), np.zeros((N_GAUGE_ROWS, 9)), np.zeros(N_GAUGE_ROWS)
         Cx = np.hstack([self.K_rows + np.tensordot(X.ravel(), self.H_rows, 1),
-                        2.0 * np.tensordot(W.ravel(), self.H_rows, 1)]) + self.M_rows @ Ax
+                        2.0 * np.tensordot(W.ravel(), self.H_rows, 1) + self.M_rows * damping]) + self.M_rows @ Ax
         Cu = self.M_rows @ Fm
         Cu[:, 6:9] += self.a0_rows
         y0 = X.ravel() @ self.P_rows - self.M_rows @ p
@@ -153,15 +160,15 @@ class GaugeSections:
                 rows[6 * k:6 * k + 6] = g.select @ g.K @ residual[g.dofs]
         return rows
 
-    def reference(self, q, q_modal, q_dot, q_ddot, a0, omega, alpha) -> np.ndarray:
+    def reference(self, q, q_modal, q_dot, q_ddot, q_damp, a0, omega, alpha) -> np.ndarray:
         """The section forces (18,) term by term (GaugeSection.nodal_forces), zeros for absent gauges."""
         W = _skew(np.asarray(omega, float))
         X = _skew(np.asarray(alpha, float)) + W @ W
         out = np.zeros(N_GAUGE_ROWS)
         for k, g in enumerate(self.sections):
             if g is not None:
-                out[6 * k:6 * k + 6] = g.select @ g.nodal_forces(q, q_modal, q_dot, q_ddot, np.asarray(a0, float),
-                                                                   W, X)
+                out[6 * k:6 * k + 6] = g.select @ g.nodal_forces(q, q_modal, q_dot, q_ddot, q_damp,
+                                                                   np.asarray(a0, float), W, X)
         return out
 
     def derived_outputs(self, section) -> tuple:

@@ -463,7 +463,8 @@ class FFRBeamSimulator(FFRBeamDiagnostics):
             tip = tip + dyn.tip.displacement_body(q_res)
             energy += 0.5 * float(q_res @ (dyn.model.K @ q_res))
         sections = dyn.gauges.reference(q_modal + q_res, q_modal, dyn.Phi @ state.eta_dot, dyn.Phi @ eta_ddot,
-                                        base.a0, base.omega, base.alpha).reshape(-1, 6)
+                                        dyn.Phi @ (dyn.damping * state.eta_dot), base.a0, base.omega,
+                                        base.alpha).reshape(-1, 6)
         gauges = np.hstack([sections, np.zeros((len(sections), 2))]).ravel()     # the stresses: derived below
         values = np.concatenate([u, v, a, tip, F, M, self.frequencies_hz, [energy], gauges])
         evaluate_derived(self.derived_outputs, OUTPUT_NAMES, values)
