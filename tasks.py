@@ -6,7 +6,7 @@
                              # the example bracket mesh as an FMU and run it in the wave converter
                              # (its deformed shape: dist/bracket_animation.gif, dist/bracket_vtk/),
                              # and the wave converter on a flexible barge (dist/barge_vs_rigid.png)
-    python3 tasks.py test    # set up .venv, then run the whole test suite
+    python3 tasks.py test    # set up .venv, then run the whole test suite (a pytest-xdist worker per core)
     python3 tasks.py verify  # the suite under each OpenBLAS kernel type this CPU can run, in random order
                              # (3 seeds), and from a wheel installed outside the checkout (slow: ~1 h)
 
@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import subprocess
 import sys
 import venv
@@ -208,7 +209,11 @@ def main() -> int:
                 return status
         return 0
     if task == "test":
-        return run(["-m", "pytest", *extra])
+        # one pytest-xdist worker per core, each test file on one worker (its module fixtures, the FMUs it builds,
+        # built once); "-n 0" among the arguments runs in this process instead (a debugger, -x on the first failure)
+        workers = [] if any(a == "-n" or a.startswith(("-n=", "--numprocesses")) or re.fullmatch(r"-n\d+", a)
+                            for a in extra) else ["-n", "auto", "--dist", "loadfile"]
+        return run(["-m", "pytest", *workers, *extra])
     if task == "verify":
         return verify(extra)
     if task == "setup":
