@@ -325,13 +325,6 @@ def test_gauge_moments_and_root_shear_match_the_closed_form(shaken_sim, axis, ra
 
 @pytest.mark.study
 @needs_gauges
-@pytest.mark.xfail(strict=True, reason=(
-    "an interior gauge's shear deviates from the elastic shear -EI w_xxx by the share at the cut node of the modal "
-    "damping load on the element after the cut (c(x) = sum 2 zeta omega_n q_n' rho A phi_n; the deviation equals "
-    "int c N_1 ds over that element to 1-3 %): the gauges' end forces K_e q + M_e q'' + inertial load leave out the "
-    "element's damping forces (with C = M Phi diag(2 zeta omega) Phi^T M: M_e Phi_e diag(2 zeta omega) eta'). "
-    "3.2 % of the shear at mid-span at the 2nd resonance with 32 elements, half that with 64; nil at the clamp "
-    "(phi = 0 there) and O(h^2) smaller in the moments"))
 def test_interior_gauge_shear_matches_the_closed_form(shaken_sim):
     """The shear force at a quarter and mid-span (Eq. 13) within 1 % at every frequency of RATIOS (shaken along y)."""
     worst = (0.0, "")
