@@ -1,4 +1,5 @@
-"""`flexfmu fatigue`: rainflow counting and Miner damage of one column of a result CSV (flexfmu.fatigue)."""
+"""`flexfmu fatigue`: rainflow counting and Miner damage of one column of a result CSV, or of the critical point of a
+signed stress scan (a beam section's fibres, a solid gauge's planes) (flexfmu.fatigue)."""
 from __future__ import annotations
 
 import argparse
@@ -49,14 +50,28 @@ def _fatigue(args: argparse.Namespace) -> int:
         raise ParameterError("bins", f"{args.bins}", "an integer 1 .. 1000")
     check_output_path(args.out, "out")
     check_output_path(args.plot, "plot")
-    history = history_from_csv(args.result, args.gauge, time_column=args.time_column, unit=args.unit,
-                               t_start=args.t_start, parameter="gauge")
-    if args.scf != 1.0:
-        history = type(history)(history.time, history.stress * args.scf, f"{history.name} x SCF {args.scf:g}",
-                                history.unit)
-    assessment = assess_history(history, curve, n_ref=args.n_ref, n_bins=args.bins)
-    print(f"{args.result}: {args.gauge}, t = {history.time[0]:g} .. {history.time[-1]:g} s "
-          f"({history.time.size} samples, stress in {args.unit})")
+    check_output_path(args.scan_out, "scan-out")
+    if args.section is not None and args.section_gauge is None:
+        raise ParameterError("section", f"{args.section!r} without --section-gauge",
+                             "--section only with --section-gauge PREFIX")
+    if args.scan_out is not None and args.gauge is not None:
+        raise ParameterError("scan-out", "with --gauge (one column, nothing scanned)",
+                             "--scan-out with --section-gauge or --tensor-gauge")
+    if args.gauge is not None:
+        history = history_from_csv(args.result, args.gauge, time_column=args.time_column, unit=args.unit,
+                                   t_start=args.t_start, parameter="gauge")
+        if args.scf != 1.0:
+            history = type(history)(history.time, history.stress * args.scf, f"{history.name} x SCF {args.scf:g}",
+                                    history.unit)
+        assessment = assess_history(history, curve, n_ref=args.n_ref, n_bins=args.bins)
+        scan = None
+        print(f"{args.result}: {args.gauge}, t = {history.time[0]:g} .. {history.time[-1]:g} s "
+              f"({history.time.size} samples, stress in {args.unit})")
+    else:
+        scan, time, what = _signed_scan(args, curve)
+        assessment = scan.assessment
+        print(f"{args.result}: {what}, t = {time[0]:g} .. {time[-1]:g} s ({time.size} samples)")
+        print("\n".join(scan.summary_lines()))
     print(assessment.table())
     if curve.source:
         print(f"curve: {curve.source}")
@@ -64,7 +79,38 @@ def _fatigue(args: argparse.Namespace) -> int:
         print(f"wrote {assessment.write_csv(args.out)}")
     if args.plot is not None:
         print(f"wrote {plot_range_histogram(assessment, args.plot)}")
+    if args.scan_out is not None:
+        print(f"wrote {scan.write_places_csv(args.scan_out)}")
     return 0
+
+
+def _signed_scan(args: argparse.Namespace, curve):
+    """The signed stress scan of --section-gauge (fibres round --section) or --tensor-gauge (planes), the times it
+    covers (s) and the text saying which columns it read."""
+    from flexfmu.fatigue.gauge_columns import read_time_and_columns, section_columns, tensor_columns
+    from flexfmu.fatigue.section_points import BeamSection
+    from flexfmu.fatigue.signed_scan import critical_plane_scan, section_scan
+
+    if args.section_gauge is not None:
+        if args.section is None:
+            raise ParameterError("section", "missing: --section-gauge needs the section",
+                                 "--section circle:D, tube:DO,DI or rectangle:B,H (m; B along z, H along y)")
+        if args.unit != "Pa":
+            raise ParameterError("unit", f"{args.unit} with --section-gauge",
+                                 "Pa: the stress comes from N (N), My, Mz (N m) and --section (m)")
+        section = BeamSection.from_text(args.section, "section")
+        columns, torsion = section_columns(args.result, args.section_gauge, "section-gauge")
+        t, v = read_time_and_columns(args.result, columns + ([torsion] if torsion else []),
+                                     time_column=args.time_column, t_start=args.t_start, parameter="section-gauge")
+        scan = section_scan(t, v[:, 0], v[:, 1], v[:, 2], section, curve, name=args.section_gauge, scf=args.scf,
+                            n_ref=args.n_ref, n_bins=args.bins, torsion=v[:, 3] if torsion else None)
+        return scan, t, ", ".join(columns) + f" (N, N m) at the {section.describe()}"
+    columns = tensor_columns(args.result, args.tensor_gauge, "tensor-gauge")
+    t, v = read_time_and_columns(args.result, columns, time_column=args.time_column, t_start=args.t_start,
+                                 parameter="tensor-gauge")
+    scan = critical_plane_scan(t, v, curve, name=args.tensor_gauge, unit=args.unit, scf=args.scf, n_ref=args.n_ref,
+                               n_bins=args.bins)
+    return scan, t, f"{columns[0]} .. {columns[-1]} (stress in {args.unit}, body frame)"
 
 
 def add_parser(sub) -> None:
@@ -77,10 +123,23 @@ def add_parser(sub) -> None:
                     "summed by Miner's rule. Prints the ranges binned with their cycles and damage, the total "
                     "damage, the equivalent constant-amplitude range for --n-ref cycles, the damage rate per second "
                     "of the record and the life it implies in hours and years; writes the bins as CSV (--out) and "
-                    "a range histogram (--plot). No mean-stress correction, one uniaxial stress (docs/fatigue.md).")
+                    "a range histogram (--plot). --section-gauge and --tensor-gauge make signed histories instead "
+                    "of one column: the axial stress at points round a beam section, or the normal stress on every "
+                    "plane through a solid gauge's point, and assess the critical one. No mean-stress correction, "
+                    "no multiaxial criterion beyond the normal stress (docs/fatigue.md).")
     p.add_argument("result", metavar="RESULT.csv", type=Path, help="the result CSV")
-    p.add_argument("--gauge", required=True, metavar="COLUMN",
-                   help="the stress column, e.g. harvester.gauge_root_sigma_max (see docs/fatigue.md)")
+    gauge = p.add_mutually_exclusive_group(required=True)
+    gauge.add_argument("--gauge", default=None, metavar="COLUMN",
+                       help="one stress column, e.g. harvester.gauge_1_sigma_max (unsigned: see docs/fatigue.md)")
+    gauge.add_argument("--section-gauge", default=None, metavar="PREFIX",
+                       help="a beam gauge's section forces PREFIX_N, PREFIX_My, PREFIX_Mz (e.g. harvester.gauge_1): "
+                            "the signed axial stress at points round --section's outline, the critical one assessed")
+    gauge.add_argument("--tensor-gauge", default=None, metavar="NAME",
+                       help="a solid gauge's stress NAME.sigma_xx .. NAME.sigma_xz: the normal stress on planes of "
+                            "every orientation (critical plane, ~800 planes), the critical one assessed")
+    p.add_argument("--section", default=None, metavar="circle:D|tube:DO,DI|rectangle:B,H",
+                   help="with --section-gauge: the section at the gauge, m (B the width along the section's z, H the "
+                        "height along y; docs/scene_format.md)")
     curve = p.add_mutually_exclusive_group(required=True)
     curve.add_argument("--sn", default=None, metavar="m,log10a[,cutoff]",
                        help="a one-slope curve N = a S^-m (S in --sn-unit), with ranges below cutoff doing no damage")
@@ -107,4 +166,6 @@ def add_parser(sub) -> None:
     p.add_argument("--bins", type=int, default=20, metavar="N", help="range bins of the table (default 20)")
     p.add_argument("--out", type=Path, default=None, metavar="table.csv", help="write the bins as CSV")
     p.add_argument("--plot", type=Path, default=None, metavar="hist.png", help="write the range histogram (PNG)")
+    p.add_argument("--scan-out", type=Path, default=None, metavar="places.csv",
+                   help="with --section-gauge or --tensor-gauge: every scanned point or plane with its damage")
     p.set_defaults(func=_fatigue)
