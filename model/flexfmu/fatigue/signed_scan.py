@@ -151,10 +151,9 @@ def section_scan(time, N, My, Mz, section: BeamSection, curve: SNCurve, *, name:
     notes = ["left out: torsion and transverse shear (sigma_xx only; no multiaxial criterion)"]
     if torsion is not None:
         tau = section.torsion_shear(np.asarray(torsion, float).ravel()) * to_curve
-        notes.append(f"torsion: largest shear stress {tau.max():.4g} {curve.unit} (x SCF), against the "
-                     f"critical fibre's largest axial range {largest[k]:.4g} {curve.unit}: "
-                     + ("small beside it" if tau.max() <= 0.1 * largest[k] else "not small: sigma_xx alone may "
-                        "underestimate the damage"))
+        share = f"{100.0 * tau.max() / largest[k]:.3g} % of" if largest[k] > 0.0 else "against"
+        notes.append(f"torsion: largest shear stress {tau.max():.4g} {curve.unit} (x SCF), {share} the critical "
+                     f"fibre's largest axial range {largest[k]:.4g} {curve.unit}; not in sigma_xx")
     return PointScan(np.column_stack([points.y, points.z]), tuple(points.label(j) for j in range(len(points))),
                      damage, largest, k, assess_history(history, curve, n_ref=n_ref, n_bins=n_bins), scanned,
                      tuple(notes))
