@@ -90,6 +90,22 @@ def test_rotating_bending_gives_every_fibre_the_same_range():
     assert np.all(scan.damage >= (n - 1) * (S * math.cos(math.pi / P)) ** 3 / 1e12)
 
 
+def test_oblique_bending_plane_is_found_within_the_refined_step():
+    """M0 (cos a, sin a) in (My, Mz): sigma = (M0 c / I) sin(angle - a), largest at a +- 90 deg; the 72 angles and the
+    refinement 0.5 deg apart put the critical fibre within 0.25 deg of it, its range within cos(0.25 deg) of 2 S."""
+    n, M0, a = 10, 2.0, math.radians(37.3)
+    t, wave = trough_start(n)
+    zero = np.zeros_like(wave)
+    scan = section_scan(t, zero, M0 * math.cos(a) * wave, M0 * math.sin(a) * wave, BeamSection.from_text(f"circle:{D}"),
+                        _curve(3.0, 12.0))
+    y, z = scan.places[scan.critical]
+    off = abs((math.atan2(z, y) - a) % math.pi - math.pi / 2)
+    assert off <= math.radians(0.25) + 1e-12
+    S = 2 * M0 * C / I_CIRCLE / 1e6
+    assert S * math.cos(math.radians(0.25)) <= scan.largest_range[scan.critical] <= S * (1 + 1e-12)
+    assert scan.largest_range[:72].max() < S * math.cos(math.radians(2.0))        # the coarse angles alone miss it
+
+
 def test_rectangle_bending_about_each_axis_finds_the_far_edge():
     B, H, M0, n = 0.02, 0.005, 2.0, 10                  # m (B along z, H along y), N m
     t, wave = trough_start(n)
@@ -200,7 +216,8 @@ def test_signed_tensor_reversal_counts_as_the_von_mises_cannot():
 def test_bad_section_text_is_refused_naming_the_option(text):
     with pytest.raises(ParameterError) as info:
         BeamSection.from_text(text, "section")
-    assert str(info.value).startswith("section") and "circle:D" in str(info.value) or "DI < DO" in str(info.value)
+    message = str(info.value)
+    assert message.startswith("section") and ("circle:D" in message or "DI < DO" in message)
 
 
 def test_scans_refuse_mismatched_arrays():
