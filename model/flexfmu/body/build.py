@@ -96,22 +96,19 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                     infinite-frequency added mass, flexfmu.wec.barge).  A free body's must be a point mass at the
                     point (translational block m I, no coupling block): the reframe kernels carry one mass.
     gauges:         stress and strain gauges (flexfmu.body.stress.Gauge or --gauge texts NAME=SET | NAME=X,Y,Z) of
-                    a clamped solid body: outputs NAME.sigma_*, NAME.von_mises, NAME.eps_* (flexfmu.body.stress).
+                    a solid body: outputs NAME.sigma_*, NAME.von_mises, NAME.eps_* (flexfmu.body.stress); a free
+                    body's are S q of its flexible coordinates q (the residual vectors among them when f_max sizes
+                    it), relative to its floating frame.
     with_shapes:    also attach ``body.shape_data`` (not saved with the body): the nodes, cells, the retained shapes
-                    Psi (N, 3, m) and the nodal stress shapes (N, 6, m) of a clamped solid body, what the FMU's
-                    shape file holds (flexfmu.body.shape_file); None for a body without cells.
+                    Psi (N, 3, m) and the nodal stress shapes (N, 6, m) of a solid body (a free body's flexible
+                    shapes, body frame), what the FMU's shape file holds (flexfmu.body.shape_file); None for a body
+                    without cells.
     """
     if not isinstance(structure, Structure):
         raise ParameterError("structure", f"{type(structure).__name__}", "a flexfmu Structure")
     if not (finite(damping_ratio) and 0.0 <= damping_ratio < 1.0):
         raise ParameterError("damping_ratio", f"{shown(damping_ratio)}", "0 <= damping_ratio < 1")
     gauges = [g if not isinstance(g, str) else gauge_from_text(g) for g in (gauges or ())]
-    if gauges and clamp is None:
-        # the stress would be S eta as for a clamped body, but a free body's outputs come from the reframe kernels
-        # (Python and C alike), which have no rows for them
-        raise ParameterError("gauge", "a free body: gauges are rows of a clamped body's linear output maps; a free "
-                             "body's outputs come from the reframe kernels, which carry no gauges",
-                             "a clamped body (--clamp SET), or no --gauge")
     checked = validate_structure(structure)
     # a model without cells, an unknown set, a point outside the mesh: refused before the reduction's work
     evaluator = SolidStress(checked) if gauges else None
@@ -128,7 +125,7 @@ def build_body(structure: Structure, *, interfaces, clamp=None, n_modes=None, f_
                     "gauges: no static-correction vectors (n_modes given, or the interfaces' static translation "
                     "was within tolerance): a gauge's quasi-static stress carries the modes' truncation error",)
         if with_shapes:
-            body.shape_data = shape_data(checked, body, shapes) if clamp is not None and checked.cells else None
+            body.shape_data = shape_data(checked, body, shapes) if checked.cells else None
         return body
 
 

@@ -48,9 +48,9 @@ def _frame_global(q_omega_alpha: np.ndarray) -> np.ndarray:
 
 
 def stress_rows(body, m: int) -> np.ndarray:
-    """The outputs after a clamped body's natural frequencies as rows on x = [eta; eta_d] (flexfmu.body.model:
+    """The outputs after a body's natural frequencies as rows on x = [eta; eta_d] (flexfmu.body.model:
     shape_names, gauge_names): q = eta, then per gauge its stress S eta, a zero row for its von Mises (a derived
-    output, filled by the simulator) and its strain E eta."""
+    output, filled by the simulator) and its strain E eta.  A free body uses the eta half (FreeEngine)."""
     rows = [np.eye(m)] if body.shape_outputs else []
     for g in body.gauges:
         rows += [g.stress, np.zeros((1, m)), g.strain]
@@ -104,6 +104,11 @@ class FreeEngine:
                              L.com_position, L.com_velocity, L.max_elastic_displacement]
         self.rotation = np.r_[L.quaternion, L.omega, L.alpha]
         self.frequencies = np.asarray(body.natural_frequencies_hz, float)
+        # after the frequencies: the shape coordinates q_1 .. q_nf (the kernels' flexible coordinates, columns q)
+        # and the gauges' stress S q and strain E q (rows of stress_rows on q; the rigid coordinates strain
+        # nothing), von Mises a zero row the simulator fills (derived_outputs)
+        self.flexible = L.q
+        self.shape_rows = np.ascontiguousarray(stress_rows(body, dyn.nf)[:, :dyn.nf])
 
     def hold(self, u: np.ndarray) -> None:
         self.inputs_vec = u
@@ -164,7 +169,8 @@ class FreeEngine:
         """All outputs in the body's output_names order (max_elastic_displacement = -1 when include_deferred is
         False).  Called under np.errstate(all="ignore") (FlexBodySimulator.output_vector)."""
         raw = self.outputs(include_deferred)
-        return np.concatenate([raw[self.columns], _frame_global(raw[self.rotation]), self.frequencies])
+        return np.concatenate([raw[self.columns], _frame_global(raw[self.rotation]), self.frequencies,
+                               self.shape_rows @ raw[self.flexible]])
 
     def get(self) -> dict:
         return {"t": self.t, "y": self.y.tolist()}

@@ -132,8 +132,7 @@ class FlexBody:
     frame: ClassVar[str]
     interface_notes: ClassVar[dict]
     frequency_text: ClassVar[str]
-    #: whether the retained coordinates are outputs (q_1 .. q_m) and gauges are possible: a clamped body's
-    shape_outputs: ClassVar[bool] = False
+    shape_outputs: ClassVar[bool] = False      #: the retained coordinates are outputs (q_1 .. q_m), gauges possible
 
     name: str
     dofs_per_node: int
@@ -221,8 +220,8 @@ class FlexBody:
         return tuple(f"f_{k}" for k in range(1, len(self.natural_frequencies_hz) + 1))
 
     def shape_names(self) -> tuple[str, ...]:
-        """q_1 .. q_m: the retained coordinates as outputs (a clamped body's; none for a free body): the eigenmodes'
-        then the static-correction vectors', so that the displacement of every node is Psi q (the shape file)."""
+        """q_1 .. q_m: the retained elastic coordinates as outputs (eigenmodes', then static-correction vectors'), so
+        that the elastic displacement of every node is Psi q (the shape file; a free body's: in its body frame)."""
         return tuple(f"q_{k}" for k in range(1, self.n_coordinates + 1)) if self.shape_outputs else ()
 
     def gauge_names(self) -> tuple[str, ...]:
@@ -354,9 +353,21 @@ class FreeBody(FlexBody):
     body_outputs = FREE_BODY_OUTPUTS + FRAME_GLOBAL_OUTPUTS
     deferred_outputs = ("max_elastic_displacement",)
     frame = "global"
-    shape_outputs = False
+    shape_outputs = True
     interface_notes = {"pos": "", "vel": "", "acc": ""}
     frequency_text = "elastic natural frequency"
+
+    def variable_info(self) -> dict[str, tuple[str, str]]:
+        """FlexBody.variable_info; q and the gauges: the elastic deformation's, relative to the floating frame."""
+        info = super().variable_info()
+        caveat = ("no static-correction vectors (n_modes given, or not needed for the interfaces' tolerance): the "
+                  "quasi-static stress carries the modes' truncation error" if self.n_coordinates == self.n_modes
+                  else "static-correction vectors included")
+        notes = {n: "; elastic displacement relative to the body frame (the floating frame: origin at the centre of "
+                 "mass, rotation q_w .. q_z), body-frame components" for n in self.shape_names()}
+        notes.update({n: f"; of the elastic deformation S q (inertia relief included); {caveat}"
+                      for n in self.gauge_names() if not n.endswith(".von_mises")})
+        return {**info, **{n: (info[n][0], info[n][1] + text) for n, text in notes.items()}}
 
     @classmethod
     def array_shapes(cls, m: int) -> dict:

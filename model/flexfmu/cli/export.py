@@ -49,9 +49,6 @@ def _export_body(args: argparse.Namespace) -> int:
     gauges = [gauge_from_text(text) for text in args.gauge]        # bad text refused before the model is read
     structure = load_user_model(args)
     clamp = clamp_from_text(structure, args.clamp)
-    if gauges and clamp is None:
-        raise ParameterError("gauge", "a free body (no --clamp and no constrained DOFs in the model file)",
-                             "gauges on a clamped body: --clamp SET[,SET...]")
     body = build_body(structure, interfaces=interfaces, clamp=clamp, n_modes=args.modes, f_max=args.f_max,
                       tolerance=args.tolerance, damping_ratio=args.damping, gauges=gauges,
                       with_shapes=args.runtime == "python")
@@ -75,9 +72,9 @@ def add_parser(sub) -> None:
                     "of a clamped body: --interface-type): a free body (reframe integrator) or, with --clamp "
                     "or constrained DOFs in the file, a body clamped on a moving base; per interface NAME the inputs "
                     "NAME.F_x/y/z (and NAME.M_x/y/z) and the outputs NAME.pos_*/vel_*/acc_*, plus the body outputs "
-                    "and f_1 ... f_6; a clamped body also its shape coordinates q_1 ... q_m and per --gauge NAME its "
-                    "stress, von Mises and strain outputs. Lengths and coordinates in m (after --length-unit "
-                    "scaling). See docs/export.md.")
+                    "and f_1 ... f_6, its shape coordinates q_1 ... q_m and per --gauge NAME its stress, von Mises and "
+                    "strain outputs (a free body's: of its elastic deformation, body frame). Lengths and coordinates "
+                    "in m (after --length-unit scaling). See docs/export.md.")
     export.add_argument("model", metavar="MODEL", help="model file or spec (mesh, model .json, .bdf, .full, .npz, "
                                                        "beam:<scene>, paper_plate)")
     export.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.fmu",
@@ -88,7 +85,7 @@ def add_parser(sub) -> None:
                              "(the nodes within R m), NAME=SET (a node set; the point at its centre) or "
                              "NAME=SET@X,Y,Z")
     export.add_argument("--gauge", action="append", default=[], metavar="NAME=SET|X,Y,Z",
-                        help="a stress and strain gauge of a clamped solid body (repeatable): NAME=SET (the averaged "
+                        help="a stress and strain gauge of a solid body (repeatable): NAME=SET (the averaged "
                              "nodal stress of a node set) or NAME=X,Y,Z (the stress at a point, m, body frame); "
                              "outputs NAME.sigma_xx .. NAME.sigma_xz, NAME.von_mises (Pa), NAME.eps_xx .. NAME.eps_xz, "
                              "body frame (docs/export.md, 'Gauges')")

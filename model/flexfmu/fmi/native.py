@@ -326,7 +326,9 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
     the other parameters settable."""
     from flexfmu.body.simulator import FlexBodySimulator
     from flexfmu.body.variables import INITIAL_MOTION, TOLERANCE_RANGE
-    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html
+    import tempfile
+
+    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html, shape_resource
     from flexfmu.reframe.schemes import scheme_class
 
     code = scheme_class(scheme, lambda s: s.for_bodies and s.native_code is not None, context="native: ",
@@ -347,6 +349,11 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
                *(RuntimeParameter(n, allowed="a finite number") for n in INITIAL_MOTION))
     order, bc, br, sc, sr = dyn.umax
     n_direct = len(engine.columns)
+    # after the kernel columns: the 9 global frame vectors and the frequencies (reframe.extra, negative columns),
+    # the shape coordinates q_1 .. q_nf (the kernels' own output columns q, flexfmu.reframe.layout), then the
+    # gauges: rows on q (reframe.rows, negative columns after the constants; von Mises a zero row the C overwrites)
+    n_constant, q_first = 9 + engine.frequencies.size, engine.flexible.start
+    gauge_rows = np.ascontiguousarray(engine.shape_rows[nf:], dtype=float)
     first, loads = 0, []
     for moments in engine.moments:
         loads.append([first, 6 if moments else 3])
@@ -359,8 +366,13 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
         columns = []
         for out in outputs:
             k = sim.output_names.index(out)
-            columns.append(int(engine.columns[k]) if k < n_direct else -1 - (k - n_direct))
-        return {
+            j = k - n_direct
+            columns.append(int(engine.columns[k]) if j < 0 else -1 - j if j < n_constant else
+                           q_first + j - n_constant if j < n_constant + nf else -1 - (j - nf))
+        von_mises = [[outputs.index(d.output), *(outputs.index(n) for n in d.sources)] for d in sim.derived_outputs]
+        gauges = {"reframe.rows": gauge_rows,
+                  "reframe.von_mises": np.array(von_mises, np.int32).reshape(-1, 7)} if gauge_rows.size else {}
+        return {**gauges,
             "reframe.P": np.array(dyn.P, dtype=float), "reframe.LP": np.array(dyn.LP, dtype=float),
             "reframe.PP": np.array(dyn.PP, dtype=float).reshape(dyn.n_if, 3 + 3 * nf),
             "reframe.omega": np.sqrt(np.maximum(dyn.kF, 0.0)), "reframe.Psi": np.ascontiguousarray(dyn.Psi),
@@ -378,13 +390,17 @@ def _free_body_source(body, name: str, description: str | None, scheme: str) -> 
             "reframe.extra": np.asarray(engine.frequencies, float).reshape(-1),
         }
 
+    # the shape file of a body built with its shape data (u = Psi q of the outputs q_k, body frame: flexfmu animate)
+    with tempfile.TemporaryDirectory(prefix="flexfmu-shape-") as tmp:
+        resources = {path.name: path.read_bytes() for path in shape_resource(body, Path(tmp))}
     page = documentation_html(name, body)
-    summary = page[page.index("<h2>Model, source and reduction</h2>"):page.index("<h2>Variables</h2>")]
+    # the shape file's paragraph (when it has one) and the model's summary
+    summary = page[page.index("</p>", page.index("<h1>")) + len("</p>"):page.index("<h2>Variables</h2>")]
     return NativeSource(
         name=name, description=description, spec=spec, values=dataclasses.asdict(config), runtime=runtime, lti=None,
         experiment=default_experiment(body), kind="reframe", kind_entries=entries, messages=list(sim.messages),
         rebuild=f"flexfmu export MODEL -o {name}.fmu ... --runtime native", log_split=True, documentation=summary,
-        info={"source": body.summary(), "scheme": scheme})
+        resources=resources, info={"source": body.summary(), "scheme": scheme})
 
 
 #: the source of each native model kind an exported body's class names (FlexBody.native_kind)

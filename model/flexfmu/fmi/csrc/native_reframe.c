@@ -30,8 +30,15 @@
  *                     LP then has n_loads blocks, PP (n_points, 3 + 3 nf) one row per interface
  *   reframe.limit     float64 (1): the RK4 stability limit 2.8 / omega_max (scheme consistent; inf otherwise)
  *   reframe.extra     float64 (n_extra): constant outputs (f_1 .. f_k)
+ *   reframe.rows      float64 (n_rows, nf), optional: outputs linear in the flexible coordinates q_F (the gauges'
+ *                     stress S q_F and strain E q_F, flexfmu.body.engines.FreeEngine.shape_rows; a zero row for a
+ *                     von Mises output, overwritten below)
+ *   reframe.von_mises int32 (n_vm, 7), optional: per von Mises output its index among the FMU's outputs, then those
+ *                     of its six stress outputs in VOIGT order (csrc/derived_stress.h's ffx_von_mises, the formula of
+ *                     flexfmu/core/stress.py); evaluated after the others
  * and reframe.columns may then be negative: -1 - j is the j-th of [rot (3), omega (3), alpha (3) global, the
- * constants of reframe.extra] (flexfmu.body.simulator._frame_global of q, omega_k, alpha_k).  Their split is
+ * constants of reframe.extra, the rows of reframe.rows] (flexfmu.body.simulator._frame_global of q, omega_k,
+ * alpha_k).  Their split is
  * FreeEngine.split: exponential with internal_step = 0: n = ceil(h (wm + sqrt(wm^2 + 2 a theta)) / (2 theta))
  * with wm = w + a h, w, a = |omega|, |alpha| of the state with the inputs now held, theta = 0.5 tolerance^(1/4);
  * otherwise n = ceil(h / max_step (1 - 1e-12)), max_step = internal_step, or 90 % of the RK4 limit (consistent).
@@ -58,7 +65,8 @@
 
 #include "flexfmu_bridge.h"
 #include "native_kind.h"
-#include "lti_kernels.h" /* ffx_same_step: one step for a host's last-bit variants */
+#include "derived_stress.h" /* ffx_von_mises: a free body's gauges */
+#include "lti_kernels.h"    /* ffx_same_step: one step for a host's last-bit variants */
 #include "reframe_kernels.h"
 #include "step_policy.h"
 
@@ -74,8 +82,9 @@ typedef struct {
     NativeLayout layout;
     int nf, dpn, deformed, rotational, log_split, psi_cols, n_nodes, n_blocks, n_super, n_out;
     int free_body, consistent, n_loads, n_points, n_extra; /* free_body: an exported free body (header) */
-    const double *P, *LP, *PP, *omega, *Psi, *bc, *br, *sc, *sr, *fixed, *extra;
-    const int32_t *columns, *role, *loads;
+    int n_rows, n_vm;                                      /* reframe.rows, reframe.von_mises (0: none) */
+    const double *P, *LP, *PP, *omega, *Psi, *bc, *br, *sc, *sr, *fixed, *extra, *rows;
+    const int32_t *columns, *role, *loads, *von_mises;
     double limit;
     int64_t *order;
     double arm, J_min, size, mass;
@@ -127,6 +136,17 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
             || native_f64(file, "reframe.extra", 1, NULL, &m->extra, s, why, why_size) < 0)
             goto fail;
         m->limit = limit[0], m->n_extra = (int)s[0];
+        long srow[2] = {-1, ints[0]}, svm[2] = {-1, 7};
+        if (native_entry(file, "reframe.rows")) {
+            if (native_f64(file, "reframe.rows", 2, srow, &m->rows, s, why, why_size) < 0) goto fail;
+            m->n_rows = (int)s[0];
+        }
+        if (native_entry(file, "reframe.von_mises")) {
+            if (native_i32(file, "reframe.von_mises", 2, svm, &m->von_mises, s, why, why_size) < 0) goto fail;
+            m->n_vm = (int)s[0];
+            for (int k = 0; k < 7 * m->n_vm; k++)
+                if (m->von_mises[k] < 0 || m->von_mises[k] >= (int32_t)layout->n_outputs) goto bad_index;
+        }
         for (int i = 0; i < m->n_loads; i++)
             if (m->loads[2 * i] < 0 || (m->loads[2 * i + 1] != 3 && m->loads[2 * i + 1] != 6)
                 || (size_t)(m->loads[2 * i] + m->loads[2 * i + 1]) > layout->n_inputs)
@@ -171,7 +191,7 @@ static void *load(const NativeFile *file, const NativeLayout *layout, char *why,
     }
     for (int k = 0; k < m->n_out; k++)
         if (m->columns[k] >= FFX_REFRAME_OUTPUT_SIZE(nf, m->n_points)
-            || (m->columns[k] < 0 && !(m->free_body && -1 - m->columns[k] < 9 + m->n_extra)))
+            || (m->columns[k] < 0 && !(m->free_body && -1 - m->columns[k] < 9 + m->n_extra + m->n_rows)))
             goto bad_index;
     for (int k = 0; k < N_ROLES; k++)
         if (m->role[k] >= (int32_t)layout->n_params) goto bad_index;
@@ -628,11 +648,30 @@ static int cheap_outputs(ReframeSim *s, const double *x, const double *u, double
     double extra[9];
     if (m->free_body) frame_global(s->out + 6, extra);
     int bad = 0;
+    const double *q = s->out + 22; /* the kernels' q_F (flexfmu.reframe.layout: output_layout's q) */
     for (int k = 0; k < m->n_out; k++) {
         if (!include_deferred && deferred && deferred[k]) continue; /* not computed: its place left */
-        int c = m->columns[k];
-        y[k] = c >= 0 ? s->out[c] : -1 - c < 9 ? extra[-1 - c] : m->extra[-1 - c - 9];
+        int c = m->columns[k], j = -1 - c;
+        if (c >= 0)
+            y[k] = s->out[c];
+        else if (j < 9)
+            y[k] = extra[j];
+        else if (j < 9 + m->n_extra)
+            y[k] = m->extra[j - 9];
+        else {
+            const double *row = m->rows + (size_t)(j - 9 - m->n_extra) * (size_t)m->nf;
+            double sum = 0.0;
+            for (int i = 0; i < m->nf; i++) sum += row[i] * q[i];
+            y[k] = sum;
+        }
         bad |= !isfinite(y[k]);
+    }
+    for (int k = 0; k < m->n_vm; k++) { /* after their sources, as the simulator's derived_outputs */
+        const int32_t *e = m->von_mises + 7 * k;
+        double stress[6];
+        for (int i = 0; i < 6; i++) stress[i] = y[e[1 + i]];
+        y[e[0]] = ffx_von_mises(stress);
+        bad |= !isfinite(y[e[0]]);
     }
     return bad ? NATIVE_NOT_FINITE : BRIDGE_OK;
 }
