@@ -212,12 +212,23 @@ def test_signed_tensor_reversal_counts_as_the_von_mises_cannot():
 
 # ---------------------------------------------------------------------------------------------- bad input
 @pytest.mark.parametrize("text", ["circle", "circle:0", "circle:-1", "circle:nan", "circle:a", "circle:1,2",
-                                  "tube:0.01", "tube:0.01,0.02", "tube:0.01,0.01", "rectangle:1", "ellipse:1,2", ""])
+                                  "tube:0.01", "tube:0.01,0.02", "tube:0.01,0.01", "tube:0.01,-1e-3", "rectangle:1",
+                                  "ellipse:1,2", ""])
 def test_bad_section_text_is_refused_naming_the_option(text):
     with pytest.raises(ParameterError) as info:
         BeamSection.from_text(text, "section")
     message = str(info.value)
     assert message.startswith("section") and ("circle:D" in message or "DI < DO" in message)
+
+
+@pytest.mark.parametrize("text", ["circle:0.008", "tube:0.012,0.007", "tube:0.01,0", "rectangle:0.02,0.005"])
+def test_a_section_from_its_constants_has_its_dimensions(text):
+    """What a scene's Section holds (A, Iy, Iz) gives back the dimensions (rounding: 1e-14)."""
+    section = BeamSection.from_text(text)
+    again = BeamSection.from_constants(section.shape, section.area, section.Iy, section.Iz)
+    assert again.shape == section.shape and np.allclose(again.dims, section.dims, rtol=1e-14, atol=1e-16)
+    with pytest.raises(ParameterError, match="section: a generic section"):
+        BeamSection.from_constants("generic", section.area, section.Iy, section.Iz)
 
 
 def test_scans_refuse_mismatched_arrays():
@@ -272,6 +283,20 @@ def test_cli_section_gauge_end_to_end(tmp_path, capsys):
     rows = list(csv.reader(places.open()))
     assert rows[0] == ["y_m", "z_m", "place", "damage", "largest_range_MPa"] and len(rows) == 1 + 72 + 20
     assert float(rows[1][3]) == pytest.approx(damage, rel=1e-12)
+
+
+def test_cli_section_from_a_scene_equals_the_section_given(tmp_path, capsys):
+    """--section scene:spatial_double_L (circle 8 mm, docs/scene_format.md) is --section circle:0.008."""
+    result, _ = _result(tmp_path)
+    damages = []
+    for section in ("scene:spatial_double_L", "circle:0.008"):
+        assert main(["fatigue", str(result), "--section-gauge", "h.gauge_1", "--section", section, "--sn", "3,12"]) == 0
+        out = capsys.readouterr().out
+        assert "at the circle D = 8 mm" in out
+        damages.append(float(re.search(r"Miner damage: (\S+)", out).group(1)))
+    assert damages[0] == pytest.approx(damages[1], rel=1e-6)        # printed to 7 digits
+    err = _error(capsys, [str(result), "--section-gauge", "h.gauge_1", "--section", "scene:nosuch", "--sn", "3,12"])
+    assert "section: 'nosuch'" in err
 
 
 def test_cli_tensor_gauge_end_to_end(tmp_path, capsys):

@@ -94,11 +94,12 @@ def _signed_scan(args: argparse.Namespace, curve):
     if args.section_gauge is not None:
         if args.section is None:
             raise ParameterError("section", "missing: --section-gauge needs the section",
-                                 "--section circle:D, tube:DO,DI or rectangle:B,H (m; B along z, H along y)")
+                                 "--section circle:D, tube:DO,DI or rectangle:B,H (m; B along z, H along y), or "
+                                 "scene:NAME|PATH (the FFRBeam instance's scene)")
         if args.unit != "Pa":
             raise ParameterError("unit", f"{args.unit} with --section-gauge",
                                  "Pa: the stress comes from N (N), My, Mz (N m) and --section (m)")
-        section = BeamSection.from_text(args.section, "section")
+        section = _section(args.section, BeamSection)
         columns, torsion = section_columns(args.result, args.section_gauge, "section-gauge")
         t, v = read_time_and_columns(args.result, columns + ([torsion] if torsion else []),
                                      time_column=args.time_column, t_start=args.t_start, parameter="section-gauge")
@@ -111,6 +112,18 @@ def _signed_scan(args: argparse.Namespace, curve):
     scan = critical_plane_scan(t, v, curve, name=args.tensor_gauge, unit=args.unit, scf=args.scf, n_ref=args.n_ref,
                                n_bins=args.bins)
     return scan, t, f"{columns[0]} .. {columns[-1]} (stress in {args.unit}, body frame)"
+
+
+def _section(text: str, beam_section):
+    """--section: circle:D, tube:DO,DI, rectangle:B,H, or scene:NAME|PATH, the one section of an FFRBeam scene (a
+    built-in name or a scene JSON: what the instance's ``scene`` parameter names)."""
+    shape, _, rest = text.strip().partition(":")
+    if shape.strip().lower() != "scene":
+        return beam_section.from_text(text, "section")
+    from flexfmu.ffr.scene import load_scene
+
+    section = load_scene(rest.strip(), parameter="section").section
+    return beam_section.from_constants(section.shape, section.A, section.Iy, section.Iz, "section")
 
 
 def add_parser(sub) -> None:
@@ -137,9 +150,10 @@ def add_parser(sub) -> None:
     gauge.add_argument("--tensor-gauge", default=None, metavar="NAME",
                        help="a solid gauge's stress NAME.sigma_xx .. NAME.sigma_xz: the normal stress on planes of "
                             "every orientation (critical plane, ~800 planes), the critical one assessed")
-    p.add_argument("--section", default=None, metavar="circle:D|tube:DO,DI|rectangle:B,H",
+    p.add_argument("--section", default=None, metavar="circle:D|tube:DO,DI|rectangle:B,H|scene:NAME",
                    help="with --section-gauge: the section at the gauge, m (B the width along the section's z, H the "
-                        "height along y; docs/scene_format.md)")
+                        "height along y; docs/scene_format.md), or scene:NAME|PATH, the section of the FFRBeam "
+                        "instance's scene (its 'scene' parameter: a built-in name or a scene JSON)")
     curve = p.add_mutually_exclusive_group(required=True)
     curve.add_argument("--sn", default=None, metavar="m,log10a[,cutoff]",
                        help="a one-slope curve N = a S^-m (S in --sn-unit), with ranges below cutoff doing no damage")

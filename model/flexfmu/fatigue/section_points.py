@@ -72,12 +72,31 @@ class BeamSection:
                                  SECTION_FORMS) from None
         require(len(dims) == wanted[shape], parameter,
                 f"{text!r}: {shape} takes {wanted[shape]} dimension(s), got {len(dims)}", SECTION_FORMS)
-        require(all(math.isfinite(d) and d > 0.0 for d in dims), parameter,
+        lengths = dims[:1] if shape == "tube" else dims          # a tube's bore may be 0 (a solid circle)
+        require(all(math.isfinite(d) and d > 0.0 for d in lengths), parameter,
                 f"{text!r}: a dimension is not a finite length > 0", SECTION_FORMS)
         if shape == "tube":
-            require(dims[1] < dims[0], parameter, f"{text!r}: the inner diameter {dims[1]:g} m is not below the "
-                    f"outer {dims[0]:g} m", "tube:DO,DI with 0 < DI < DO")
+            require(math.isfinite(dims[1]) and 0.0 <= dims[1] < dims[0], parameter,
+                    f"{text!r}: the inner diameter {dims[1]:g} m is not in [0, the outer {dims[0]:g} m)",
+                    "tube:DO,DI with 0 <= DI < DO")
         return cls(shape, dims)
+
+    @classmethod
+    def from_constants(cls, shape: str, A: float, Iy: float, Iz: float, parameter: str = "section") -> "BeamSection":
+        """The section whose constants (m^2, m^4) a circle, tube or rectangle of docs/scene_format.md has (a scene's
+        Section): circle D^2 = 4 A / pi; tube DO^2 + DI^2 = 16 I / A, DO^2 - DI^2 = 4 A / pi; rectangle
+        B^2 = 12 Iy / A (along z), H^2 = 12 Iz / A (along y).  A generic section has no outline: ParameterError."""
+        require(all(math.isfinite(v) and v > 0.0 for v in (A, Iy, Iz)), parameter, f"A {A!r}, Iy {Iy!r}, Iz {Iz!r}",
+                "finite section constants > 0")
+        if shape == "circle":
+            return cls("circle", (math.sqrt(4.0 * A / math.pi),))
+        if shape == "tube":
+            total, diff = 16.0 * Iy / A, 4.0 * A / math.pi
+            return cls("tube", (math.sqrt(0.5 * (total + diff)), math.sqrt(max(0.0, 0.5 * (total - diff)))))
+        if shape == "rectangle":
+            return cls("rectangle", (math.sqrt(12.0 * Iy / A), math.sqrt(12.0 * Iz / A)))
+        raise ParameterError(parameter, f"a {shape} section (A, Iy, Iz, J) has no outline to place fibres on",
+                             "a circle, tube or rectangle section, or " + SECTION_FORMS)
 
     # ------------------------------------------------------------------ constants (docs/scene_format.md)
     @property
