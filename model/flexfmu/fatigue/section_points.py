@@ -40,6 +40,15 @@ class SectionPoints:
     def __len__(self) -> int:
         return int(self.y.size)
 
+    def take(self, index) -> "SectionPoints":
+        """The points ``index`` (a slice or indices) of these."""
+        return SectionPoints(self.y[index], self.z[index], None if self.angle is None else self.angle[index])
+
+    def joined(self, other: "SectionPoints") -> "SectionPoints":
+        """These points, then ``other``'s."""
+        angle = None if self.angle is None or other.angle is None else np.concatenate([self.angle, other.angle])
+        return SectionPoints(np.concatenate([self.y, other.y]), np.concatenate([self.z, other.z]), angle)
+
     def label(self, k: int) -> str:
         """Where point k is, as text."""
         where = f"y = {self.y[k] * 1e3:.4g} mm, z = {self.z[k] * 1e3:.4g} mm"

@@ -10,7 +10,7 @@ Why signed: the gauges' sigma_max and von_mises are the largest over a section, 
 stress of range S becomes two cycles of range S/2 in them, 2^(1-m) of the damage (docs/fatigue.md).
 
 - ``section_scan``: sigma_xx = N / A + My z / Iy - Mz y / Iz at the points of flexfmu.fatigue.section_points (a
-  circle: 72 angles, then the 21 angles 0.5 deg apart within 5 deg of the worst; a rectangle: corners and edge
+  circle: 72 angles, then the 20 angles 0.5 deg apart within 5 deg of the worst; a rectangle: corners and edge
   points).  Torsion and transverse shear are left out (the command reports the torsion's largest shear beside).
 - ``critical_plane_scan``: the normal stress sigma_n = n^T sigma n on the planes of flexfmu.fatigue.plane_normals
   (every plane within ``step`` of a scanned one), then twice the planes of a cap of twice the last step round the
@@ -91,15 +91,22 @@ class PointScan:
         return path
 
 
-def _damage_per_column(stress_curve_unit: np.ndarray, curve: SNCurve) -> tuple[np.ndarray, np.ndarray]:
-    """Miner damage and largest rainflow range of every column (samples x places; the curve's unit)."""
-    k = stress_curve_unit.shape[1]
-    damage, largest = np.zeros(k), np.zeros(k)
-    for j in range(k):
-        cycles = rainflow_cycles(np.ascontiguousarray(stress_curve_unit[:, j]))
-        if cycles.ranges.size:
-            damage[j] = float(cycle_damage(cycles.ranges, cycles.counts, curve).sum())
-            largest[j] = float(cycles.ranges.max())
+#: places evaluated at once: a block of samples x places is built per chunk, not for all places (a 60,000-sample
+#: record on 815 planes would be 390 MB at once)
+CHUNK = 32
+
+
+def _damage_per_place(stress_of, count: int, curve: SNCurve) -> tuple[np.ndarray, np.ndarray]:
+    """Miner damage and largest rainflow range of each of ``count`` places; ``stress_of(slice)`` gives the stress
+    histories (samples x places of the slice) in the curve's unit."""
+    damage, largest = np.zeros(count), np.zeros(count)
+    for start in range(0, count, CHUNK):
+        block = stress_of(slice(start, min(count, start + CHUNK)))
+        for j in range(block.shape[1]):
+            cycles = rainflow_cycles(np.ascontiguousarray(block[:, j]))
+            if cycles.ranges.size:
+                damage[start + j] = float(cycle_damage(cycles.ranges, cycles.counts, curve).sum())
+                largest[start + j] = float(cycles.ranges.max())
     return damage, largest
 
 
@@ -128,8 +135,11 @@ def section_scan(time, N, My, Mz, section: BeamSection, curve: SNCurve, *, name:
     require(math.isfinite(scf) and scf > 0.0, "scf", f"{scf!r}", "a finite stress concentration factor > 0")
     to_curve = scf * unit_scale("Pa") / unit_scale(curve.unit)
     points = section.points(n_angles, per_edge)
-    stress = section.axial_stress(N, My, Mz, points)
-    damage, largest = _damage_per_column(stress * to_curve, curve)
+
+    def stress_at(pts: SectionPoints):
+        return lambda index: section.axial_stress(N, My, Mz, pts.take(index)) * to_curve
+
+    damage, largest = _damage_per_place(stress_at(points), len(points), curve)
     scanned = (f"sigma_xx = N/A + My z/Iy - Mz y/Iz at {len(points)} points round the {section.describe()}: "
                + ("its corners and edges" if section.shape == "rectangle"
                   else f"its outer circle {360.0 / n_angles:g} deg apart"))
@@ -138,19 +148,20 @@ def section_scan(time, N, My, Mz, section: BeamSection, curve: SNCurve, *, name:
         half = round(CIRCLE_REFINE_HALF_WIDTH / CIRCLE_REFINE_STEP)
         steps = np.arange(-half, half + 1)
         fine = section.circle_points(points.angle[k0] + CIRCLE_REFINE_STEP * steps[steps != 0])   # k0 is scanned
-        d_fine, l_fine = _damage_per_column(section.axial_stress(N, My, Mz, fine) * to_curve, curve)
-        points = SectionPoints(np.concatenate([points.y, fine.y]), np.concatenate([points.z, fine.z]),
-                               np.concatenate([points.angle, fine.angle]))
-        stress = np.hstack([stress, section.axial_stress(N, My, Mz, fine)])
+        d_fine, l_fine = _damage_per_place(stress_at(fine), len(fine), curve)
+        points = points.joined(fine)
         damage, largest = np.concatenate([damage, d_fine]), np.concatenate([largest, l_fine])
-        scanned += (f", then {fine.y.size} more {math.degrees(CIRCLE_REFINE_STEP):g} deg apart within "
+        scanned += (f", then {len(fine)} more {math.degrees(CIRCLE_REFINE_STEP):g} deg apart within "
                     f"{math.degrees(CIRCLE_REFINE_HALF_WIDTH):g} deg of the worst")
     k = _worst(damage, largest)
-    history = StressHistory(t, stress[:, k] * scf, f"{name} sigma_xx at {points.label(k)}"
+    sigma = section.axial_stress(N, My, Mz, points.take([k]))[:, 0]
+    history = StressHistory(t, sigma * scf, f"{name} sigma_xx at {points.label(k)}"
                             + (f" x SCF {scf:g}" if scf != 1.0 else ""), "Pa")
     notes = ["left out: torsion and transverse shear (sigma_xx only; no multiaxial criterion)"]
     if torsion is not None:
-        tau = section.torsion_shear(np.asarray(torsion, float).ravel()) * to_curve
+        torsion = np.asarray(torsion, float).ravel()
+        require(torsion.size == N.size, "torsion", f"{torsion.size} samples of T for {N.size} of N", "as many")
+        tau = section.torsion_shear(torsion) * to_curve
         share = f"{100.0 * tau.max() / largest[k]:.3g} % of" if largest[k] > 0.0 else "against"
         notes.append(f"torsion: largest shear stress {tau.max():.4g} {curve.unit} (x SCF), {share} the critical "
                      f"fibre's largest axial range {largest[k]:.4g} {curve.unit}; not in sigma_xx")
@@ -178,12 +189,16 @@ def critical_plane_scan(time, stress, curve: SNCurve, *, name: str = "gauge", un
             "an integer 0 .. 6")
     to_curve = scf * unit_scale(unit) / unit_scale(curve.unit)
     normals = hemisphere_normals(step)
-    damage, largest = _damage_per_column(normal_stress(s, normals) * to_curve, curve)
+
+    def stress_on(planes: np.ndarray):
+        return lambda index: normal_stress(s, planes[index]) * to_curve
+
+    damage, largest = _damage_per_place(stress_on(normals), normals.shape[0], curve)
     n_coarse, h = normals.shape[0], step
     for _ in range(refinements):
         best = normals[_worst(damage, largest)]
         cap = cap_normals(best, 2.0 * h, h / 3.0)[1:]              # its centre is scanned already
-        d, r = _damage_per_column(normal_stress(s, cap) * to_curve, curve)
+        d, r = _damage_per_place(stress_on(cap), cap.shape[0], curve)
         normals, damage, largest = np.vstack([normals, cap]), np.concatenate([damage, d]), np.concatenate([largest, r])
         h /= 3.0
     k = _worst(damage, largest)
