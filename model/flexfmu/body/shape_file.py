@@ -36,9 +36,9 @@ SHAPE_VERSION = 1
 #: where an FMU keeps its shape file
 FMU_SHAPE_MEMBER = "resources/shape.npz"
 #: what a user does to get an FMU with a shape file (quoted by the errors)
-HOW_TO_EXPORT = ("a clamped solid body exported from a mesh by `flexfmu export MODEL -o BODY.fmu --clamp SET ...` "
-                 "with the Python runtime, the default (docs/export.md); the built-in FMUs (FFRBeam, ReframeBody, the "
-                 "wave converter's), free bodies, --runtime native FMUs and models read as matrices carry none")
+HOW_TO_EXPORT = ("a solid body exported from a mesh by `flexfmu export MODEL -o BODY.fmu ...`, clamped or free, "
+                 "either runtime (docs/export.md); the built-in FMUs (FFRBeam, ReframeBody, the wave converter's) and "
+                 "models read as matrices carry none")
 _CELL_PREFIX = "cells/"
 
 

@@ -51,7 +51,7 @@ def _export_body(args: argparse.Namespace) -> int:
     clamp = clamp_from_text(structure, args.clamp)
     body = build_body(structure, interfaces=interfaces, clamp=clamp, n_modes=args.modes, f_max=args.f_max,
                       tolerance=args.tolerance, damping_ratio=args.damping, gauges=gauges,
-                      with_shapes=args.runtime == "python")
+                      with_shapes=True)     # a solid's shape file, either runtime (flexfmu animate)
     for line in body.messages:
         print(f"flexfmu export: {line}", file=sys.stderr)
     target = export_fmu(body, args.output, runtime=args.runtime, fmi_version=args.fmi_version,

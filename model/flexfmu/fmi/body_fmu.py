@@ -13,11 +13,14 @@ from pathlib import Path
 
 from flexfmu.errors import ParameterError
 
-__all__ = ["BODY_FILE", "ExportedSpec", "exported_spec", "check_model_identifier", "check_target",
-           "default_experiment", "documentation_html"]
+__all__ = ["BODY_FILE", "SHAPE_FILE", "ExportedSpec", "exported_spec", "check_model_identifier", "check_target",
+           "default_experiment", "documentation_html", "shape_html", "shape_resource"]
 
 #: the model's file name inside the FMU's resources/ (a Python FMU's; a native one carries its own model file)
 BODY_FILE = "flexfmu_body.npz"
+#: the shape file's name inside the FMU's resources/ (the nodes, cells, shapes Psi and nodal stress shapes S: what
+#: flexfmu animate draws the deformed body from, with the outputs q_1 .. q_n); either runtime's FMU of a solid
+SHAPE_FILE = "shape.npz"            # flexfmu.body.shape_file.FMU_SHAPE_MEMBER: resources/shape.npz
 
 
 @dataclass(frozen=True)
@@ -107,10 +110,7 @@ def documentation_html(name: str, body) -> str:
     rows = "\n".join(f"<tr><td><code>{html.escape(v)}</code></td><td>{html.escape(info[v][0])}</td>"
                      f"<td>{html.escape(info[v][1])}</td></tr>" for v in info)
     summary = "\n".join(f"<li>{html.escape(line)}</li>" for line in body.describe())
-    shape = ("" if not getattr(body, "shape_data", None) else
-             "\n<p><code>resources/shape.npz</code> holds the undeformed nodes (m, body frame), the cells, the shapes "
-             "Psi and the averaged nodal stress shapes S of the coordinates q_1 ... q_n (outputs): the displacement "
-             "of every node is u = Psi q and its stress sigma = S q (<code>flexfmu animate</code> draws them).</p>")
+    shape = shape_html(body)
     return f"""<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>{html.escape(name)}</title></head>
 <body>
@@ -128,3 +128,28 @@ def documentation_html(name: str, body) -> str:
 </table>
 </body></html>
 """
+
+
+def shape_html(body) -> str:
+    """The documentation's paragraph on ``resources/shape.npz`` for a body that carries one (its shape data), else
+    ""; both runtimes' pages say it."""
+    if not getattr(body, "shape_data", None):
+        return ""
+    return (f"\n<p><code>resources/{SHAPE_FILE}</code> holds the undeformed nodes (m, body frame), the cells, the "
+            "shapes Psi and the averaged nodal stress shapes S of the coordinates q_1 ... q_n (outputs): the "
+            "displacement of every node is u = Psi q and its stress sigma = S q (<code>flexfmu animate</code> draws "
+            "them).</p>")
+
+
+def shape_resource(body, folder: Path) -> tuple[Path, ...]:
+    """(the shape file written in ``folder``,) for a body built with its shape data (build_body(with_shapes=True)
+    on a solid with cells), else (): the one writer of both runtimes' shape files (flexfmu.fmi.export,
+    flexfmu.fmi.native put it into resources/)."""
+    data = getattr(body, "shape_data", None)
+    if not data:
+        return ()
+    from flexfmu.body.shape_file import write_shape_file
+    path = Path(folder) / SHAPE_FILE
+    write_shape_file(path, data["nodes"], data["cells"], data["Psi"], data["S"], data["names"],
+                     header={"body": data["name"]})
+    return (path,)

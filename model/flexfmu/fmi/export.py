@@ -14,8 +14,9 @@ from pathlib import Path
 from flexfmu.errors import ParameterError
 # what both runtimes' FMUs of a body share; re-exported: slaves generated before flexfmu.fmi.slave import
 # exported_spec from here
-from flexfmu.fmi.body_fmu import (BODY_FILE, ExportedSpec, check_model_identifier, check_target,  # noqa: F401
-                                  default_experiment, documentation_html, exported_spec)
+# (SHAPE_FILE, shape_resource: the shape file, written for both runtimes by body_fmu)
+from flexfmu.fmi.body_fmu import (BODY_FILE, SHAPE_FILE, ExportedSpec, check_model_identifier,  # noqa: F401
+                                  check_target, default_experiment, documentation_html, exported_spec, shape_resource)
 
 
 def export_fmu(body, target: Path, *, description: str | None = None, runtime: str = "python",
@@ -51,24 +52,3 @@ def export_fmu(body, target: Path, *, description: str | None = None, runtime: s
         return build.build_one(spec, target, runtime_files, experiment=default_experiment(body),
                                resources=resources, documentation={"index.html": documentation_html(name, body)},
                                fmi_version=fmi_version)
-
-
-#: the shape file's name inside the FMU's resources/ (the nodes, cells, shapes Psi and nodal stress shapes S: what
-#: flexfmu animate draws the deformed body from, with the outputs q_1 .. q_n)
-SHAPE_FILE = "shape.npz"            # flexfmu.body.shape_file.FMU_SHAPE_MEMBER: resources/shape.npz
-
-
-def shape_resource(body, folder: Path) -> tuple[Path, ...]:
-    """(the shape file written in ``folder``,) for a body built with its shape data (build_body(with_shapes=True)
-    on a clamped solid), else ()."""
-    data = getattr(body, "shape_data", None)
-    if not data:
-        return ()
-    try:
-        from flexfmu.body.shape_file import write_shape_file
-    except ImportError:                          # a flexfmu without the shape file's module: no shape file
-        return ()
-    path = folder / SHAPE_FILE
-    write_shape_file(path, data["nodes"], data["cells"], data["Psi"], data["S"], data["names"],
-                     header={"body": data["name"]})
-    return (path,)

@@ -295,9 +295,12 @@ def body_source(body, name: str, description: str | None = None, *, scheme: str 
 
 def _clamped_body_source(body, name: str, description: str | None, scheme: str) -> NativeSource:
     """An exported clamped body as the LTI kind (csrc/native_lti.c): the linear system extracted from its
-    FlexBodySimulator's maps (flexfmu.native.lti.LtiModel.from_clamped_body); ``scheme`` is a free body's."""
+    FlexBodySimulator's maps (flexfmu.native.lti.LtiModel.from_clamped_body), and the shape file of a body built with
+    its shape data (resources/shape.npz, as the Python runtime's FMU: flexfmu animate); ``scheme`` is a free body's."""
+    import tempfile
+
     from flexfmu.body.simulator import FlexBodySimulator
-    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html
+    from flexfmu.fmi.body_fmu import ExportedSpec, default_experiment, documentation_html, shape_resource
     from flexfmu.native.lti import LtiModel
 
     description = description or body.summary()
@@ -310,13 +313,16 @@ def _clamped_body_source(body, name: str, description: str | None, scheme: str) 
                                 allowed="-1 (the body's) or 0 <= damping_ratio < 1"),
                RuntimeParameter("internal_step", 0.0, allowed="0 (automatic) or a step > 0 s"),
                _max_internal_steps())
+    with tempfile.TemporaryDirectory(prefix="flexfmu-shape-") as tmp:
+        resources = {path.name: path.read_bytes() for path in shape_resource(body, Path(tmp))}
     page = documentation_html(name, body)
-    summary = page[page.index("<h2>Model, source and reduction</h2>"):page.index("<h2>Variables</h2>")]
+    # the shape file's paragraph (when it has one) and the model's summary
+    summary = page[page.index("</p>", page.index("<h1>")) + len("</p>"):page.index("<h2>Variables</h2>")]
     return NativeSource(
         name=name, description=description, spec=spec, values=dataclasses.asdict(config), runtime=runtime, lti=lti,
         experiment=default_experiment(body), messages=[f"model: {body.summary()}", *body.messages],
         rebuild=f"flexfmu export MODEL -o {name}.fmu ... --runtime native", log_split=True, documentation=summary,
-        info={"source": body.summary(), "fit_error": lti.fit_error})
+        resources=resources, info={"source": body.summary(), "fit_error": lti.fit_error})
 
 
 def _free_body_source(body, name: str, description: str | None, scheme: str) -> NativeSource:

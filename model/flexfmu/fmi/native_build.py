@@ -10,6 +10,7 @@ Layout of a native FMU:
     binaries/aarch64-linux/<id>.so  cross-compiled with gcc-aarch64-linux-gnu, when installed
     resources/flexfmu_model.bin   the model (flexfmu.fmi.model_file)
     resources/flexfmu_build.json  flexfmu version, runtime "native", model, kind, GUID, the parameters frozen
+    resources/shape.npz           an exported solid's shape file (NativeSource.resources; flexfmu animate)
     sources/                      every C source and header of the binary, fmi2 headers, CMakeLists.txt, README.md
     documentation/index.html      the model, the frozen parameters, the variables, how to rebuild
 
@@ -74,6 +75,8 @@ class NativeSource:
     #: the kind's own binaries (the moordyn kind: MoorDyn's library), or None: a function (binaries, missing) ->
     #: (binaries kept, platforms missing, {archive member: bytes})
     kind_files: object = None
+    #: further files of resources/ {name: bytes} (an exported solid's shape file, flexfmu.body.shape_file)
+    resources: dict = field(default_factory=dict)
     messages: list = field(default_factory=list)
     divergence_limit: float = math.inf
     divergence_allowed: str = "inputs within the model's range"
@@ -475,7 +478,7 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, inte
         members = {
             "modelDescription.xml": description,
             **{f"binaries/{p.name}/{source.name}{p.suffix}": binaries[p.name] for p in PLATFORMS if p.name in binaries},
-            **kind_files,
+            **kind_files, **{f"resources/{k}": v for k, v in source.resources.items()},
             f"resources/{MODEL_FILE}": model_file.read_bytes(),
             f"resources/{BUILD_INFO}": json.dumps(info, indent=1, default=str).encode(),
             "documentation/index.html": _documentation(source, frozen, binaries, missing).encode(),
