@@ -37,8 +37,8 @@
  *                     of its six stress outputs in VOIGT order (csrc/derived_stress.h's ffx_von_mises, the formula of
  *                     flexfmu/core/stress.py); evaluated after the others
  * and reframe.columns may then be negative: -1 - j is the j-th of [rot (3), omega (3), alpha (3) global, the
- * constants of reframe.extra, the rows of reframe.rows] (flexfmu.body.simulator._frame_global of q, omega_k,
- * alpha_k).  Their split is
+ * constants of reframe.extra, the rows of reframe.rows on q_F] (flexfmu.body.simulator._frame_global of q,
+ * omega_k, alpha_k); the shape coordinates q_1 .. q_nf are the kernel columns 22 .. 21 + nf.  Their split is
  * FreeEngine.split: exponential with internal_step = 0: n = ceil(h (wm + sqrt(wm^2 + 2 a theta)) / (2 theta))
  * with wm = w + a h, w, a = |omega|, |alpha| of the state with the inputs now held, theta = 0.5 tolerance^(1/4);
  * otherwise n = ceil(h / max_step (1 - 1e-12)), max_step = internal_step, or 90 % of the RK4 limit (consistent).
