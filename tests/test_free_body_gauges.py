@@ -191,18 +191,21 @@ def test_steady_acceleration_stress_is_the_inertia_relief_solution(bar, referenc
     t = N_STEPS * STEP
     com_acc = np.array([out[f"com_vel_{a}"] for a in "xyz"]) / t
     assert np.allclose(com_acc, reference["a_r"][:3], rtol=1e-6)
-    modes_only = build_body(structure, interfaces=INTERFACES, n_modes=10, gauges=GAUGES)
-    out_modes = settled_outputs(modes_only)
+    # the modes alone, 10 and twice as many: their truncation error (not monotone at a point: measured 1.6e-2 and
+    # 1.8e-2 at ``p``, 5.3e-3 with 40)
+    out_modes = {n: settled_outputs(build_body(structure, interfaces=INTERFACES, n_modes=n, gauges=GAUGES))
+                 for n in (10, 20)}
     for gauge in ("p", "mid"):
-        ref, got, truncated = reference[gauge], stress_of(out, gauge), stress_of(out_modes, gauge)
+        ref, got = reference[gauge], stress_of(out, gauge)
         error = np.abs(got - ref).max() / np.abs(ref).max()
         vm_error = abs(out[f"{gauge}.von_mises"] / von_mises(ref) - 1)
-        error_modes = np.abs(truncated - ref).max() / np.abs(ref).max()
+        error_modes = {n: np.abs(stress_of(o, gauge) - ref).max() / np.abs(ref).max() for n, o in out_modes.items()}
         print(f"{gauge}: von Mises full {von_mises(ref) / 1e6:.5f} MPa, FMU {out[f'{gauge}.von_mises'] / 1e6:.5f} "
               f"MPa (error {vm_error:.2e}, tensor {error:.2e}; {body.n_modes} modes + "
-              f"{body.n_coordinates - body.n_modes} residual vectors); 10 modes alone: tensor error {error_modes:.2e}")
+              f"{body.n_coordinates - body.n_modes} residual vectors); modes alone, tensor error: "
+              + ", ".join(f"{n} modes {e:.2e}" for n, e in error_modes.items()))
         assert error < RTOL and vm_error < RTOL
-        assert error_modes > error
+        assert min(error_modes.values()) > error
         assert out[f"{gauge}.von_mises"] == pytest.approx(float(von_mises(got)), rel=1e-12)
         strain = np.array([out[f"{gauge}.eps_{c}"] for c in VOIGT])
         compliance = (1 + NU) / E * got - NU / E * np.concatenate([np.full(3, got[:3].sum()), np.zeros(3)])
