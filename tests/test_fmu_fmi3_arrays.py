@@ -7,7 +7,9 @@ as its scalars bit for bit, and the record driven through the force array equals
 three force scalars bit for bit; modal_coordinates and modal_rates are the continuous states, natural_frequencies the
 FMU's f_1 .. f_6, n_retained_modes half the number of states; bad calls are refused with fmi3Error and one message
 naming the variable; directional derivatives through arrays are those of their elements; fmusim runs the FMUs and
-sets the structural parameter through Configuration Mode."""
+sets the structural parameter through Configuration Mode. A hexahedral bar with two gauges exported clamped and free:
+its gauges' stress and strain tensors (G.sigma, G.eps) and its shape coordinates (q, sized by n_shape_coordinates)
+read as their scalars bit for bit."""
 from __future__ import annotations
 
 import ctypes
@@ -444,3 +446,114 @@ def test_cli_builds_arrays_on_request_only(tmp_path):
                  ("build", "--runtime", "native", "--fmi3-arrays", "--out", tmp_path)):
         run = flexfmu(*args)
         assert run.returncode == 2 and "fmi3-arrays: needs --runtime native --fmi-version 3" in run.stderr, run.stderr
+
+
+# ---------------------------------------------------------------------------------------------- an exported body
+@pytest.fixture(scope="module")
+def bar_fmus(tmp_path_factory):
+    """{"clamped", "free": (FMI 3.0 native FMU with arrays, its body)} of the bar (tests/hex_bar.py), clamped at its
+    root or free, a tip interface, gauges at a point and over the root's node set; --f-max 2000: modes and
+    static-correction vectors (clamped 11 + 16, free 15 + 6), so q has both kinds."""
+    pytest.importorskip("meshio")
+    from hex_bar import bar_model
+
+    from flexfmu.body.build import build_body, clamp_from_text
+    from flexfmu.body.interfaces import interface_from_text
+    from flexfmu.fmi.native import body_source
+    from flexfmu.fmi.native_build import build_native_fmu
+    from flexfmu.importers import load_structure
+
+    folder = tmp_path_factory.mktemp("bar")
+    structure = load_structure(bar_model(folder))
+    out = {}
+    for case, clamp in (("clamped", clamp_from_text(structure, "root")), ("free", None)):
+        body = build_body(structure, interfaces=[interface_from_text("tip=tip")], clamp=clamp, f_max=2000.0,
+                          gauges=["mid=0.2,0,0", "root=root"])
+        assert body.n_coordinates > body.n_modes             # static-correction coordinates among the q
+        name = f"Bar{case.title()}"
+        out[case] = build_native_fmu(body_source(body, name), folder / case / f"{name}.fmu", fmi_version=3,
+                                     arrays=True), body
+    return out
+
+
+@pytest.mark.parametrize("case", ["clamped", "free"])
+def test_a_bodys_tensors_and_shape_coordinates_are_its_scalars(bar_fmus, case):
+    """The gauges' G.sigma and G.eps (<Dimension start="6"/>, VOIGT order, the scalars' units) and q (sized by the
+    structural parameter n_shape_coordinates = the body's number of coordinates) are validated by fmpy and, over 20 ms
+    of a moving tip load (and base acceleration: clamped), read as their scalars bit for bit; the clamped body's q
+    (the LTI kind's states x[0 .. n-1]) reads as modal_coordinates."""
+    from flexfmu.core.stress import VOIGT
+
+    fmu, body = bar_fmus[case]
+    assert validate_fmu(str(fmu)) == []
+    md = read_model_description(str(fmu))
+    views = {v.name: v for v in md.modelVariables if BASE <= v.valueReference < TIME}
+    size = views["n_shape_coordinates"]
+    assert (size.type, size.causality, size.variability, int(size.start)) == (
+        "UInt64", "structuralParameter", "fixed", body.n_coordinates)
+    assert views["q"].shape == (body.n_coordinates,)
+    assert [d.variable.name for d in views["q"].dimensions] == ["n_shape_coordinates"]
+    tensors = {f"{g}.{t}": [f"{g}.{t}_{c}" for c in VOIGT] for g in ("mid", "root") for t in ("sigma", "eps")}
+    for name in tensors:
+        assert views[name].shape == (6,) and views[name].causality == "output", name
+        assert views[name].unit == ("Pa" if name.endswith("sigma") else None), name
+        assert "(xx, yy, zz, xy, yz, xz)" in views[name].description
+    scalars = {"q": [f"q_{k}" for k in range(1, body.n_coordinates + 1)], **tensors}
+    t = np.arange(0.0, 0.02 + 5e-4, 1e-3)
+    inputs = [("tip.F_x", 50.0 * np.sin(300.0 * t)), ("tip.F_z", 20.0 * np.cos(700.0 * t))]
+    if case == "clamped":
+        inputs.append(("base_a_y", 3.0 * np.sin(900.0 * t)))
+    signal = np.zeros(len(t), dtype=[("time", float)] + [(name, float) for name, _ in inputs])
+    signal["time"] = t
+    for name, values in inputs:
+        signal[name] = values
+    modal = ["modal_coordinates"] if case == "clamped" else []
+    result = simulate_fmu(str(fmu), stop_time=0.02, step_size=1e-3, output_interval=1e-3, input=signal,
+                          output=[*scalars, *modal, *(n for names in scalars.values() for n in names)])
+    for array, names in scalars.items():
+        elements = np.column_stack([result[n] for n in names])
+        assert np.array_equal(result[array], elements), array
+        assert np.ptp(elements, axis=0).max() > 0, array       # (the root set's yz is 0 by the bar's symmetry)
+    assert np.all(np.ptp(result["q"], axis=0) > 0)                  # every q moves
+    if modal:
+        assert np.array_equal(result["q"], result["modal_coordinates"])
+
+
+def test_the_shape_coordinates_size_is_fixed_at_build(bar_fmus):
+    """n_shape_coordinates = its built value through Configuration Mode is taken; another is refused naming it."""
+    fmu, body = bar_fmus["clamped"]
+    n = body.n_coordinates
+    inst = Instance3(fmu, "configure", state="Instantiated")
+    try:
+        size = inst.vr["n_shape_coordinates"]
+        assert inst.raw("fmi3EnterConfigurationMode") == 0
+        inst.fmu.setUInt64([size], [n])
+        assert inst.fmu.getUInt64([size]) == [n] and not inst.errors()
+        assert _status(lambda i: i.fmu.setUInt64([size], [n + 1]), inst) == 3
+        errors = inst.errors()
+        assert len(errors) == 1 and errors[0].startswith(
+            f"fmi3SetUInt64: n_shape_coordinates: got {n + 1}, but this FMU was built with n_shape_coordinates = "
+            f"{n}, fixed at build: the number of shape coordinates"), errors
+        assert "--modes N" in errors[0]
+    finally:
+        inst.free()
+
+
+def test_the_tensors_chosen():
+    """flexfmu.fmi.fmi3_arrays.tensors on a made-up table: six components of one prefix, causality and unit are a
+    tensor in VOIGT order whatever the scalars' order; a full matrix (r_yx ...), a missing component, mixed units are
+    none; a name taken by a scalar or a vector gets '_voigt'."""
+    from flexfmu.fmi.fmi3_arrays import tensors
+    from flexfmu.fmi.variables import Variable
+
+    def rows(*spec):
+        return [Variable(name, "Real", "output", 0.0, unit, f"thing {name}") for name, unit in spec]
+
+    voigt = ("xx", "yy", "zz", "xy", "yz", "xz")
+    table = rows(*[(f"g.sigma_{c}", "Pa") for c in reversed(voigt)], ("s", "m"), *[(f"s_{c}", "1") for c in voigt],
+                 *[(f"r_{a}{b}", "1") for a in "xyz" for b in "xyz"], *[(f"e_{c}", "1") for c in voigt[:5]],
+                 *[(f"u_{c}", "Pa") for c in voigt[:5]], ("u_xz", "1"), *[(f"v_{c}", "1") for c in voigt])
+    position = {v.name: k for k, v in enumerate(table)}
+    found = {name: members for name, members, _ in tensors(table, taken=["v"])}
+    assert found == {name: [position[f"{prefix}_{c}"] for c in voigt]
+                     for name, prefix in (("g.sigma", "g.sigma"), ("s_voigt", "s"), ("v_voigt", "v"))}

@@ -27,7 +27,8 @@ def add_arrays(parser) -> None:
     parser.add_argument("--fmi3-arrays", action="store_true",
                         help="with --runtime native --fmi-version 3: Float64 array views beside the scalar variables "
                              "(3-vectors, modal coordinates, natural frequencies sized by the structural parameter "
-                             "n_retained_modes; docs/fmu.md, 'Array variables'). Off by default: fmpy 0.3's "
+                             "n_retained_modes; an exported body's gauge tensors NAME.sigma, NAME.eps and shape "
+                             "coordinates q; docs/fmu.md, 'Array variables'). Off by default: fmpy 0.3's "
                              "simulate_fmu feeds an input table column per input and cannot drive an array input")
 
 

@@ -13,10 +13,20 @@ their FMI 2.0 names (which stay as they are, so an FMI 3.0 FMU equals its FMI 2.
   co-simulation and model exchange alike.  The reframe kind (free bodies) gets ``n_retained_modes`` and
   ``natural_frequencies`` (its model file's ``reframe.omega``); its state is no continuous state the runtime exposes,
   so it has no modal-coordinate arrays.
+- **Tensors**: every six Float64 outputs (or inputs) ``P_xx``, ``P_yy``, ``P_zz``, ``P_xy``, ``P_yz``, ``P_xz`` of one
+  causality and unit (a symmetric tensor's components, flexfmu.core.stress.VOIGT order) are also the array ``P``
+  (``P_voigt`` when ``P`` is taken) of ``<Dimension start="6"/>``: an exported body's gauges' ``G.sigma`` (Pa) and
+  ``G.eps`` (1).
+- **Shape coordinates**: an exported body's outputs q_1 .. q_n (the retained modes' coordinates, then the
+  static-correction vectors'; u = Psi q, its resources/shape.npz; a free body's in its floating body frame) are also
+  the array ``q``, sized by the structural parameter ``n_shape_coordinates`` (UInt64, fixed at build as
+  ``n_retained_modes``). The LTI kind's q are its states x[0 .. n-1], so ``q`` reads as ``modal_coordinates``
+  there; ``q`` is the view under the shape file's names, and the free bodies' one.
 
-Value references: a block of its own from :data:`ARRAY_VALUE_REFERENCE_BASE` = 2^30 (the structural parameter first,
-then the arrays in the order above), above every runtime value reference (variables 0 .. n_vars - 1, continuous
-states and derivatives after them) and below description_fmi3.TIME_VALUE_REFERENCE (2^31 - 1).
+Value references: a block of its own from :data:`ARRAY_VALUE_REFERENCE_BASE` = 2^30 (``n_retained_modes`` first, then
+the 3-vectors and the modal arrays, then the tensors, ``n_shape_coordinates`` and ``q``: an FMU without tensors or
+shape coordinates numbers its views as before they existed), above every runtime value reference (variables 0 ..
+n_vars - 1, continuous states and derivatives after them) and below description_fmi3.TIME_VALUE_REFERENCE (2^31 - 1).
 
 The runtime learns the views from the model file (:meth:`Arrays.entries`: ``fmi3.array.*``: names, value references,
 sizes, input flags, per element the runtime value reference it views or -1 for a constant, and the constants;
@@ -39,6 +49,10 @@ from flexfmu.errors import ParameterError
 ARRAY_VALUE_REFERENCE_BASE = 2**30
 #: the structural parameter that sizes the modal arrays
 SIZE_NAME = "n_retained_modes"
+#: the structural parameter that sizes the shape coordinates' array ``q``
+SHAPE_SIZE_NAME = "n_shape_coordinates"
+#: a symmetric tensor's components, the order of its array (flexfmu.core.stress.VOIGT)
+TENSOR = ("xx", "yy", "zz", "xy", "yz", "xz")
 #: the FMU parameters that choose the number of retained modes (named in the refusal of another value)
 MODE_PARAMETERS = ("n_modes", "n_flexible_modes")
 AXES = ("x", "y", "z")
@@ -133,6 +147,38 @@ def vectors(rows) -> list[tuple[str, list[int], object]]:
     return out
 
 
+def tensors(rows, taken=()) -> list[tuple[str, list[int], object]]:
+    """(name, the value references of P_xx .. P_xz in :data:`TENSOR` order, the P_xx row) of every symmetric tensor
+    among the Real inputs and outputs of ``rows`` (flexfmu.fmi.variables.table): six components of one prefix,
+    causality and unit, and no P_yx, P_zy, P_zx (a full matrix's, as a rotation's r_xx .. r_zz); in the order of
+    their P_xx; ``taken``: names of other views (the vectors'), avoided as the scalars' are."""
+    position = {v.name: k for k, v in enumerate(rows)}
+    taken = set(position) | set(taken)
+    out = []
+    for v in rows:
+        if not (v.name.endswith("_xx") and v.type == "Real" and v.causality in ("input", "output")):
+            continue
+        prefix = v.name[:-3]
+        members = [position.get(f"{prefix}_{c}") for c in TENSOR]
+        if (None in members or any(f"{prefix}_{c}" in position for c in ("yx", "zy", "zx"))   # a full matrix's
+                or any((rows[m].type, rows[m].causality, rows[m].unit) != (v.type, v.causality, v.unit)
+                       for m in members)):
+            continue
+        name = prefix if prefix not in taken else prefix + "_voigt"
+        while name in taken:
+            name += "_"
+        taken.add(name)
+        out.append((name, members, v))
+    return out
+
+
+def _tensor_description(text: str) -> str:
+    """A tensor's description from its xx component's ("stress sigma_xx, body frame, at gauge G: ..." -> "stress
+    sigma (xx, yy, zz, xy, yz, xz), body frame, at gauge G: ...")."""
+    components = "(" + ", ".join(TENSOR) + ")"
+    return text.replace("_xx", " " + components, 1) if "_xx" in text else f"{text}: {components}"
+
+
 def natural_frequencies(kind: str, entries: dict) -> np.ndarray | None:
     """(n,) the retained modes' undamped natural frequencies (Hz) as the model file has them, or None: the LTI kind's
     from A(0) = [[0, I], [-diag(omega^2), 0]] (the modal coordinates and their rates; None when A(0) is not of that
@@ -154,10 +200,11 @@ def natural_frequencies(kind: str, entries: dict) -> np.ndarray | None:
     return None
 
 
-def plan(rows, kind: str, entries: dict, *, rebuild: str = "") -> Arrays:
+def plan(rows, kind: str, entries: dict, *, rebuild: str = "", shapes: tuple = ()) -> Arrays:
     """The FMI 3.0 views of an FMU whose variables are ``rows`` (flexfmu.fmi.variables.table) and whose model file
     has ``entries`` (flexfmu.fmi.native_build.model_entries); ``rebuild``: the command that rebuilds it with another
-    number of modes (the end of the structural parameter's refusal)."""
+    number of modes (the end of the structural parameters' refusal); ``shapes``: the names of its shape coordinates
+    (q_1 .. q_n, outputs among ``rows``; an exported body's), viewed as the array ``q``."""
     n_vars = len(rows)
     nx = int(np.asarray(entries["lti.A"]).shape[1]) if kind == "lti" else 0
     own = n_vars + 2 * nx                          # the runtime's value references: variables, states, derivatives
@@ -175,7 +222,8 @@ def plan(rows, kind: str, entries: dict, *, rebuild: str = "") -> Arrays:
             + ", ".join(views),
             f"fixed at build: the number of retained modes, which sizes {', '.join(views)}; for another number "
             f"rebuild the FMU{' (' + rebuild + ')' if rebuild else ''}"))
-    for name, members, first in vectors(rows):
+    vector_views = vectors(rows)
+    for name, members, first in vector_views:
         arrays.append(ArrayVariable(
             name, next(reference), first.causality, "continuous", first.unit,
             _vector_description([rows[m].description for m in members]), tuple(members), (0.0,) * 3,
@@ -195,6 +243,27 @@ def plan(rows, kind: str, entries: dict, *, rebuild: str = "") -> Arrays:
             "natural_frequencies", next(reference), "output", "constant", "Hz",
             "undamped natural frequencies of the retained modes, as the model integrates them", (-1,) * n,
             tuple(float(f) for f in frequencies), size=SIZE_NAME))
+    for name, members, first in tensors(rows, taken=[name for name, _, _ in vector_views]):
+        arrays.append(ArrayVariable(
+            name, next(reference), first.causality, "continuous", first.unit, _tensor_description(first.description),
+            tuple(members), (0.0,) * 6,
+            tuple(float(rows[m].start) for m in members) if first.causality == "input" else ()))
+    if shapes:
+        position = {v.name: k for k, v in enumerate(rows)}
+        missing = [name for name in shapes if name not in position or rows[position[name]].causality != "output"]
+        if missing:
+            raise ParameterError("shapes", f"{missing[0]!r} is no output of the FMU", "the names of its q outputs")
+        n = len(shapes)
+        sizes.append(StructuralParameter(
+            SHAPE_SIZE_NAME, next(reference), n, "number of shape coordinates (retained modes, then static-correction "
+            "vectors), fixed at build: the size of q",
+            "fixed at build: the number of shape coordinates (retained modes and static-correction vectors), which "
+            f"sizes q; for another number rebuild the FMU{' (' + rebuild + ')' if rebuild else ''}"))
+        arrays.append(ArrayVariable(
+            "q", next(reference), "output", "continuous", "",
+            f"shape coordinates {shapes[0]} .. {shapes[-1]} (the retained modes', then the static-correction "
+            "vectors'; m kg^0.5): the displacement of every node is u = Psi q (resources/shape.npz)",
+            tuple(position[name] for name in shapes), (0.0,) * n, size=SHAPE_SIZE_NAME))
     return Arrays(tuple(sizes), tuple(arrays))
 
 
@@ -209,7 +278,9 @@ def source_plan(source, entries: dict) -> Arrays:
     elif source.rebuild.startswith("flexfmu export"):
         settings.append("--modes N")
     rebuild = " ".join([source.rebuild, *settings]) if source.rebuild else ""
-    return plan(table(source.spec, source.values), source.kind, entries, rebuild=rebuild)
+    body = getattr(source.spec, "body", None)            # an exported body's (flexfmu.fmi.body_fmu.ExportedSpec)
+    shapes = tuple(body.shape_names()) if body is not None else ()
+    return plan(table(source.spec, source.values), source.kind, entries, rebuild=rebuild, shapes=shapes)
 
 
 # ---------------------------------------------------------------------------------------------- modelDescription

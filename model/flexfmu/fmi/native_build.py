@@ -432,7 +432,8 @@ def build_native_fmu(source: NativeSource, target, *, fmi_version: int = 2, inte
     3: an FMI 3.0 FMU (flexfmu.fmi.description_fmi3: its modelDescription, platform folders and buildDescription) of
     the same binary; ``interface``: "cs" (co-simulation), "me" (model exchange) or "both" (flexfmu.fmi.interfaces:
     model exchange for the kinds that are ODEs in fixed coordinates); ``arrays`` (FMI 3.0): the Float64 array views
-    of flexfmu.fmi.fmi3_arrays (3-vectors, modal coordinates and natural frequencies) beside the scalars."""
+    of flexfmu.fmi.fmi3_arrays (3-vectors, modal coordinates and natural frequencies, gauge tensors, shape
+    coordinates q) beside the scalars."""
     from flexfmu.fmi.interfaces import check_interface
     from fmpy.validation import validate_fmu
 
