@@ -3,6 +3,7 @@ the curve's knee and cut-off marked."""
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,9 @@ def plot_range_histogram(assessment: FatigueAssessment, path) -> Path:
     if shown.any():
         top.set_yscale("log")
     top.set_ylabel("cycles per bin")
-    top.set_title(f"{a.name}: rainflow ranges over {a.duration:.4g} s on {a.curve.name}", fontsize=10)
+    # a scan's name holds the critical plane or fibre: wrapped, so the curve's name at the end stays on the figure
+    top.set_title(textwrap.fill(f"{a.name}: rainflow ranges over {a.duration:.4g} s on {a.curve.name}", 90),
+                  fontsize=10)
     share = a.bins.damage / a.damage * 100.0 if a.damage > 0.0 else np.zeros_like(a.bins.damage)
     bottom.bar(edges[:-1], share, width=width, align="edge", color="tab:red", edgecolor="white", linewidth=0.5)
     bottom.set_ylabel("share of the damage, %")
