@@ -4,7 +4,8 @@
     python3 tasks.py main    # set up .venv, then the main job: modal report, build the FMUs into
                              # dist/, run both papers' scenarios through fmpy (dist/*.png), export
                              # the example bracket mesh as an FMU and run it in the wave converter
-                             # (its deformed shape: dist/bracket_animation.gif, dist/bracket_vtk/),
+                             # (its deformed shape: dist/bracket_animation.gif, dist/bracket_vtk/; the
+                             # fatigue of its arm root's gauge: dist/bracket_fatigue.png),
                              # and the wave converter on a flexible barge (dist/barge_vs_rigid.png)
     python3 tasks.py test    # set up .venv, then run the whole test suite (a pytest-xdist worker per core)
     python3 tasks.py verify  # the suite under each OpenBLAS kernel type this CPU can run, in random order
@@ -184,7 +185,8 @@ def main() -> int:
                      ["-m", "flexfmu", "cross-check", "dist/cross-check", "--interface", "cs", "me"],
                      # a user's mesh as an FMU, run in the wave-converter system (docs/export.md)
                      ["-m", "flexfmu", "export", "examples/bracket/bracket.json", "-o", "dist/Bracket.fmu",
-                      "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top", "--f-max", "2000"],
+                      "--clamp", "bolt_1,bolt_2", "--interface", "tip=arm_top", "--f-max", "2000",
+                      "--gauge", "root=0.0005,0.02,0.008", "--gauge", "hole=bolt_1"],
                      ["-m", "flexfmu", "cosim", "examples/bracket/OspSystemStructure.xml", "--t-end", "10",
                       "--out", "dist/bracket_system.csv"],
                      ["examples/bracket/plot_system.py", "dist/bracket_system.csv", "dist/bracket_system.png"],
@@ -192,6 +194,9 @@ def main() -> int:
                      # (docs/animation.md)
                      ["-m", "flexfmu", "animate", "dist/bracket_system.csv", "--fmu", "dist/Bracket.fmu",
                       "--out", "dist/bracket_animation.gif", "--vtk", "dist/bracket_vtk"],
+                     # the fatigue of its arm root: the critical plane of the gauge's stress (docs/fatigue.md)
+                     ["-m", "flexfmu", "fatigue", "dist/bracket_system.csv", "--tensor-gauge", "bracket.root",
+                      "--curve", "DNV-B1", "--out", "dist/bracket_fatigue.csv", "--plot", "dist/bracket_fatigue.png"],
                      # the wave converter on a flexible barge (docs/wave_converter.md)
                      ["examples/flexible_barge/make_barge.py", "--out", "dist"],
                      ["examples/flexible_barge/compare.py", "--t-end", "10", "--fmu-dir", "dist",

@@ -43,13 +43,16 @@ EXAMPLES = (
             commands=(".venv/bin/flexfmu modal examples/bracket/bracket.json --clamp bolt_1,bolt_2 "
                       "--plot docs/figures/bracket_modes.png",
                       ".venv/bin/flexfmu export examples/bracket/bracket.json -o dist/Bracket.fmu "
-                      "--clamp bolt_1,bolt_2 --interface tip=arm_top --f-max 2000",
+                      "--clamp bolt_1,bolt_2 --interface tip=arm_top --f-max 2000 "
+                      "--gauge root=0.0005,0.02,0.008 --gauge hole=bolt_1",
                       ".venv/bin/flexfmu cosim examples/bracket/OspSystemStructure.xml --t-end 10 "
                       "--out dist/bracket_system.csv",
                       ".venv/bin/python examples/bracket/plot_system.py dist/bracket_system.csv "
                       "dist/bracket_system.png",
                       ".venv/bin/flexfmu animate dist/bracket_system.csv --fmu dist/Bracket.fmu "
-                      "--out dist/bracket_animation.gif --vtk dist/bracket_vtk"),
+                      "--out dist/bracket_animation.gif --vtk dist/bracket_vtk",
+                      ".venv/bin/flexfmu fatigue dist/bracket_system.csv --tensor-gauge bracket.root "
+                      "--curve DNV-B1 --out dist/bracket_fatigue.csv --plot dist/bracket_fatigue.png"),
             see="export.md"),
     Example("flexible_barge", "The wave converter on a flexible barge", ("barge_vs_rigid.png",),
             see="wave_converter.md"),
