@@ -215,3 +215,22 @@ def test_bad_barge_parameters_name_the_field_and_its_range(field, value, allowed
     from flexfmu.wec.barge import slab_mesh
     with pytest.raises(ParameterError, match=rf"{field}: got .*allowed: {allowed}"):
         slab_mesh(BargeParameters(**{field: value}))
+
+
+def test_deck_gauge_sits_inside_the_slab_clear_of_the_mount_patch_and_reads_a_cell():
+    """make_barge.py's default gauge: midship, a quarter beam off the centreline, under the deck, inside the slab and
+    outside the mount's deck patch (whose RBE3 load would dominate a gauge inside it); flexfmu.body.stress finds it."""
+    from flexfmu.body.stress import gauge_from_text, locate_gauges
+    from flexfmu.wec.barge import deck_gauge
+
+    p = BargeParameters()
+    name, _, text = deck_gauge(p).partition("=")
+    x, y, z = (float(v) for v in text.split(","))
+    assert name == "deck"
+    assert abs(x) < p.box.length / 2 and abs(y) < p.box.beam / 2
+    assert p.z_center - p.thickness / 2 < z < p.z_center + p.thickness / 2
+    assert max(abs(x - p.mount[0]), abs(y - p.mount[1])) > p.deck_patch
+    with tempfile.TemporaryDirectory() as tmp:
+        structure = barge_structure(p, tmp)
+    located = locate_gauges(structure, [gauge_from_text(deck_gauge(p))])
+    assert len(located) == 1

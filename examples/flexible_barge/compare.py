@@ -59,6 +59,10 @@ def main(argv=None) -> int:
     for axis, what in zip("xz", ("surge", "heave")):
         diff = rb.columns[f"barge.mount.acc_{axis}"] - rr.columns[f"platform.mount_a_{axis}"]
         ax[1, 1].plot(rb.t, diff * 1e3, lw=0.8, label=f"{what}")
+    for column in sorted(c for c in rb.columns if c.startswith("barge.") and c.endswith(".von_mises")):
+        # the hull's stress gauges (make_barge.py --gauge): their largest von Mises stress over the run
+        k = int(np.argmax(rb.columns[column]))
+        print(f"barge: {column} largest {rb.columns[column][k] / 1e3:.4g} kPa at t = {rb.t[k]:.4g} s")
     f_barge, f_harvester = float(rb.columns["barge.f_1"][-1]), harvester_f1(rigid)
     ax[1, 1].set(xlabel="t (s)", ylabel="mm/s2", title="mount acceleration: barge - rigid")
     ax[1, 1].text(0.02, 0.04, f"barge f_1 {f_barge:.1f} Hz, harvester f_1 {f_harvester:.1f} Hz",

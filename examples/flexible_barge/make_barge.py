@@ -26,11 +26,14 @@ def main(argv=None) -> int:
     parser.add_argument("--f-max", type=float, default=None,
                         help="highest frequency kept, Hz (default: 1.5x the harvester's first clamped frequency)")
     parser.add_argument("--system", default=str(HERE / "OspSystemStructure.xml"), help="system file to write")
+    parser.add_argument("--gauge", action="append", default=None, metavar="NAME=SET|X,Y,Z",
+                        help="a stress gauge of the hull, as flexfmu export --gauge (repeatable; default: 'deck', "
+                             "midship a quarter beam off the centreline just under the deck)")
     args = parser.parse_args(argv)
 
     from flexfmu.cosim.masters import load_system, write_osp
     from flexfmu.fmi.export import export_fmu
-    from flexfmu.wec.barge import BargeParameters, barge_system, build_barge, harvester_f1
+    from flexfmu.wec.barge import BargeParameters, barge_system, build_barge, deck_gauge, harvester_f1
     from flexfmu.wec.components import bem_added_mass_inf, bem_database
 
     wec = load_system(ROOT / "examples" / "wave_converter" / "OspSystemStructure.xml")
@@ -38,7 +41,8 @@ def main(argv=None) -> int:
     params = BargeParameters(E=args.E)
     A_inf = bem_added_mass_inf(bem_database(params.box))
     with tempfile.TemporaryDirectory() as tmp:
-        body = build_barge(params, tmp, A_inf=A_inf, f_max=f_max, tolerance=1e-2)
+        gauges = args.gauge if args.gauge is not None else [deck_gauge(params)]
+        body = build_barge(params, tmp, A_inf=A_inf, f_max=f_max, tolerance=1e-2, gauges=gauges)
     for line in body.messages:
         print(line)
     fmu = export_fmu(body, Path(args.out) / "Barge.fmu")

@@ -161,15 +161,24 @@ def barge_interfaces(p: BargeParameters) -> list[dict]:
 
 
 def build_barge(p: BargeParameters, folder: Path, *, A_inf: np.ndarray, f_max: float, tolerance: float = 1e-3,
-                damping_ratio: float = 0.02):
+                damping_ratio: float = 0.02, gauges=()):
     """The barge's FlexBody: the slab with the body's share of A_inf at O (:func:`split_added_mass`), the
-    modes up to f_max and the interfaces' static correction."""
+    modes up to f_max and the interfaces' static correction; ``gauges``: stress gauges as flexfmu.body.build_body
+    takes them (``NAME=SET`` or ``NAME=X,Y,Z`` in the slab's coordinates, m; :func:`deck_gauge`)."""
     from flexfmu.body.build import build_body
 
     structure = barge_structure(p, folder)
     A_body, _ = split_added_mass(A_inf)
     return build_body(structure, interfaces=barge_interfaces(p), f_max=f_max, tolerance=tolerance,
-                      damping_ratio=damping_ratio, name="barge", added_mass={"hydro": A_body})
+                      damping_ratio=damping_ratio, name="barge", added_mass={"hydro": A_body}, gauges=gauges)
+
+
+def deck_gauge(p: BargeParameters, name: str = "deck") -> str:
+    """A gauge on the slab's midship section, a quarter beam off the centreline (clear of the mount's deck patch
+    there) and an eighth of the thickness under the deck: where the slab's hogging and sagging stress is largest
+    outside the patch, as ``NAME=X,Y,Z`` text."""
+    z = p.z_center + 0.5 * p.thickness - 0.125 * p.thickness
+    return f"{name}={p.mount[0]:.9g},{p.mount[1] + 0.25 * p.box.beam:.9g},{z:.9g}"
 
 
 #: the barge's interfaces that replace Platform's inputs, and the outputs that replace its motion outputs
