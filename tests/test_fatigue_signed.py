@@ -23,6 +23,8 @@ import pytest
 
 pytest.importorskip("rainflow")
 
+from test_fatigue import _write_csv  # noqa: E402  (a result CSV as the commands read it)
+
 from flexfmu.cli import main  # noqa: E402
 from flexfmu.core.stress import SectionFibres  # noqa: E402
 from flexfmu.errors import ParameterError  # noqa: E402
@@ -245,15 +247,6 @@ def test_scans_refuse_mismatched_arrays():
 
 
 # ---------------------------------------------------------------------------------------------- the command
-def _write_csv(path, t, columns: dict):
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["time", *columns])
-        for k in range(len(t)):
-            w.writerow([repr(float(t[k]))] + [repr(float(v[k])) for v in columns.values()])
-    return path
-
-
 def _result(tmp_path, n=10, M0=3.0, tau=20e6):
     t, wave = trough_start(n)
     zero = np.zeros_like(wave)
